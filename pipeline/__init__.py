@@ -1,0 +1,1 @@
+"""One module per DVC stage plus the benchmark harness. May import `ynet`, never the reverse."""
