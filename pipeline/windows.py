@@ -199,7 +199,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--release-manifest", type=Path, required=True)
     parser.add_argument("--out", type=Path, required=True, help="folder of window tables")
     parser.add_argument("--stats", type=Path, required=True, help="metrics JSON (totals)")
-    parser.add_argument("--scene-stats", type=Path, required=True, help="metrics JSON (per scene)")
+    parser.add_argument("--scene-stats", type=Path, required=True, help="JSON of window counts per scene")
     args = parser.parse_args(argv)
     all_params = read_params()
     params = load_section(WindowParams, "windows", all_params)

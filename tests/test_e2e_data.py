@@ -50,7 +50,7 @@ def test_dvc_repro_audit_on_fixture_mirror(tmp_path):
     assert {k: v for k, v in stats["raw"]["tf5"].items() if k != "outside_split"} == expected["raw_tf5"]
     audit = json.loads((repo / "metrics/data_audit.json").read_text())
     assert audit["totals"]["exact_matches"] == 3 and audit["totals"]["unexplained_mismatches"] == 0
-    assert audit["videos"]["gates_2"] == {"split": "test", "ours": 2, "release": 2, "exact_matches": 2}
+    assert audit["videos"]["gates_2"] == {"ours": 2, "release": 2, "exact_matches": 2}
 
     shown = run(["dvc", "metrics", "show", "--json"], repo)
     assert shown.returncode == 0 and "exact_matches" in shown.stdout
