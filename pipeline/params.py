@@ -69,3 +69,19 @@ def load_section(cls: type[T], key: str, params: dict[str, Any] | None = None) -
     if key not in params:
         raise ParamsError(f"params.yaml: missing section '{key}'")
     return from_dict(cls, params[key], f"params.yaml:{key}")
+
+
+def load_profile(cls: type[T], key: str, params: dict[str, Any] | None = None) -> T:
+    """Section `key` for the active `profile` (params.yaml `profile: cpu|paper`) as a `cls`.
+
+    Such a section holds one sub-mapping per profile, e.g. `ynet: {cpu: {...}, paper: {...}}`, so
+    `dvc exp run -S profile=paper` switches every profiled stage at once.
+    """
+    params = read_params() if params is None else params
+    profile = params.get("profile")
+    if key not in params:
+        raise ParamsError(f"params.yaml: missing section '{key}'")
+    if not isinstance(params[key], dict) or profile not in params[key]:
+        raise ParamsError(f"params.yaml:{key}: no settings for profile {profile!r}; "
+                          f"profiles here: {sorted(params[key]) if isinstance(params[key], dict) else []}")
+    return from_dict(cls, params[key][profile], f"params.yaml:{key}.{profile}")

@@ -1,0 +1,307 @@
+"""What the baselines and their stages share: loading windows, co-occurrence groups, batches,
+neighbour masks, the epoch loop with its checkpoints.
+
+Co-occurrence: two windows are observed at the same time in the same place when they have the same
+`scene_id` and the same `first_frame` (every window starts on a 1 FPS grid of its track, so equal
+first frames mean equal frames at every step). Social pooling only ever mixes windows of one group.
+
+Checkpoints (one directory per trained model):
+- `last.pt`: everything needed to resume: module and optimizer state_dicts, RNG states, the epoch
+  history, the best epoch so far. Written at the end of every epoch.
+- `best.pt`: the module state_dicts of the epoch with the lowest validation error, the config and
+  what the model needs to predict (n_past, n_future). What evaluation loads.
+Both are written to a temporary file and renamed, so an interruption never leaves a torn file, and
+both hold only tensors and plain Python values (loaded with `weights_only=True`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import random
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import torch
+from torch import nn
+from tqdm import tqdm
+
+from pipeline.window_table import WindowArrays, to_arrays
+
+CHECKPOINT_FORMAT = 1
+LAST = "last.pt"
+BEST = "best.pt"
+
+
+# ---------------------------------------------------------------------------------------------
+# Groups, batches and neighbours
+
+
+def co_occurrence_groups(arrays: WindowArrays) -> np.ndarray:
+    """(N,) int64 group index; windows with equal (scene_id, first_frame) share one."""
+    keys = np.char.add(np.char.add(arrays.scene_id.astype(str), "\x00"),
+                       arrays.first_frame.astype(str))
+    _, groups = np.unique(keys, return_inverse=True)
+    return groups.astype(np.int64)
+
+
+def group_batches(groups: np.ndarray, batch_size: int,
+                  generator: torch.Generator | None = None) -> list[np.ndarray]:
+    """Window indices in batches of whole groups, about `batch_size` windows each.
+
+    Groups are visited in a random order when `generator` is given (training), in index order
+    otherwise. A group larger than `batch_size` is a batch of its own (never split: its windows
+    pool with each other).
+    """
+    order = np.unique(groups)
+    if generator is not None:
+        order = order[torch.randperm(len(order), generator=generator).numpy()]
+    members = _group_members(groups)
+    batches, current, size = [], [], 0
+    for g in order:
+        idx = members[g]
+        if size and size + len(idx) > batch_size:
+            batches.append(np.concatenate(current))
+            current, size = [], 0
+        current.append(idx)
+        size += len(idx)
+    if current:
+        batches.append(np.concatenate(current))
+    return batches
+
+
+def _group_members(groups: np.ndarray) -> dict[int, np.ndarray]:
+    order = np.argsort(groups, kind="stable")
+    values, starts = np.unique(groups[order], return_index=True)
+    return dict(zip(values.tolist(), np.split(order, starts[1:]), strict=True))
+
+
+def neighbour_mask(groups: torch.Tensor, positions: torch.Tensor,
+                   radius: float | None = None) -> torch.Tensor:
+    """(B, B) bool: i and j co-occur and, when `radius` is given, come within `radius` of each other.
+
+    groups: (B,) int; positions: (B, T, 2) positions at the same T time steps for every window
+    (the observed steps: known at test time). The distance is the minimum over those steps. The
+    diagonal is always True (an agent pools with itself).
+    """
+    same = groups[:, None] == groups[None, :]  # (B, B)
+    if radius is not None:
+        dist = torch.linalg.vector_norm(positions[:, None] - positions[None, :], dim=-1)  # (B, B, T)
+        same = same & (dist.amin(dim=-1) < radius)
+    return same | torch.eye(len(groups), dtype=torch.bool, device=groups.device)
+
+
+def subset(arrays: WindowArrays, index: np.ndarray) -> WindowArrays:
+    """The windows `index` of `arrays`."""
+    return WindowArrays(**{f.name: getattr(arrays, f.name)[index]
+                           for f in dataclasses.fields(WindowArrays)})
+
+
+def load_windows(table_path: Path, n_past: int, horizon: int) -> WindowArrays:
+    """The table's windows as arrays; fails unless they are n_past + horizon steps (1 FPS)."""
+    table = pd.read_parquet(table_path)
+    horizons = sorted(table["t_f"].unique().tolist())
+    if horizons != [horizon]:
+        raise ValueError(f"{table_path}: windows of horizon(s) {horizons}, expected {horizon}")
+    arrays = to_arrays(table, n_past)
+    if arrays.future.shape[1] != horizon:
+        raise ValueError(f"{table_path}: {arrays.future.shape[1]} future steps for t_f = {horizon} s")
+    return arrays
+
+
+def select_split(arrays: WindowArrays, name: str) -> WindowArrays:
+    """The windows of split `name` (train / val / test)."""
+    return subset(arrays, np.flatnonzero(arrays.split == name))
+
+
+def check_windows(arrays: WindowArrays, n_past: int, n_future: int | None, what: str) -> None:
+    """Fail unless `arrays` has windows of n_past observed (+ n_future) steps."""
+    if arrays.past.shape[1] != n_past or (n_future is not None and arrays.future.shape[1] != n_future):
+        raise ValueError(f"{what}: the model takes {n_past} observed + {n_future} future steps, "
+                         f"the windows have {arrays.past.shape[1]} + {arrays.future.shape[1]}")
+
+
+def mlp(sizes: list[int], activation: type[nn.Module] = nn.ReLU, last_activation: bool = False) -> nn.Sequential:
+    """Linear layers of the given widths (input first, output last) with activations between."""
+    layers: list[nn.Module] = []
+    for i, (a, b) in enumerate(zip(sizes[:-1], sizes[1:])):
+        layers.append(nn.Linear(a, b))
+        if i < len(sizes) - 2 or last_activation:
+            layers.append(activation())
+    return nn.Sequential(*layers)
+
+
+# ---------------------------------------------------------------------------------------------
+# Seeds and checkpoints
+
+
+def seed_everything(seed: int) -> torch.Generator:
+    """Seed Python, numpy and torch's global RNGs; return a torch.Generator seeded with `seed`
+    that the training loop draws all its randomness from (shuffling, noise, latents)."""
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+    return torch.Generator().manual_seed(seed)
+
+
+def save_atomic(obj: Any, path: Path) -> None:
+    """torch.save to a temporary file in the same directory, then rename over `path`."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    torch.save(obj, tmp)
+    os.replace(tmp, path)
+
+
+def load_checkpoint(path: Path) -> dict[str, Any]:
+    """A checkpoint written by `run_training` (tensors and plain values only)."""
+    state = torch.load(Path(path), map_location="cpu", weights_only=True)
+    if state.get("format") != CHECKPOINT_FORMAT:
+        raise ValueError(f"{path}: checkpoint format {state.get('format')}, expected {CHECKPOINT_FORMAT}")
+    return state
+
+
+@dataclass
+class FitResult:
+    """What a training run reports."""
+
+    best_epoch: int  # 0-based epoch whose weights were kept
+    best_val_ade: float  # its validation error (min-over-K ADE, pixels)
+    epochs: int  # epochs trained in total (over all resumed runs)
+    train_seconds: float  # wall time of training, summed over resumed runs
+    history: list[dict[str, float]] = field(default_factory=list)  # one entry per epoch
+
+
+# Config keys that may change between an interrupted run and its resumption.
+RESUMABLE_CHANGES = frozenset({"epochs"})
+
+
+def run_training(
+    *,
+    name: str,
+    modules: dict[str, nn.Module],
+    optimizers: dict[str, torch.optim.Optimizer],
+    train_epoch: Callable[[int], dict[str, float]],
+    validate: Callable[[], float],
+    epochs: int,
+    config: dict[str, Any],
+    meta: dict[str, Any],
+    data_fingerprint: str,
+    checkpoint_dir: Path,
+    generator: torch.Generator,
+) -> FitResult:
+    """The epoch loop every trained baseline uses: resume, train, validate, checkpoint, keep best.
+
+    train_epoch(epoch) trains one epoch (drawing randomness from `generator` only) and returns
+    mean losses; validate() returns the validation error (lower is better) without touching
+    `generator`. On return the modules hold the best epoch's weights.
+
+    Resuming: a `last.pt` of the same data (`data_fingerprint`: windows and seed) and the same
+    config (up to `epochs`, which may only grow) is continued after its last finished epoch, and ends
+    exactly where an uninterrupted run would. Any other `last.pt` is stale (the settings or the
+    data changed, as when DVC re-runs the stage): training starts afresh and overwrites it.
+    """
+    checkpoint_dir = Path(checkpoint_dir)
+    checkpoint_dir.mkdir(parents=True, exist_ok=True)
+    start, best_epoch, best_val, history, seconds = 0, -1, float("inf"), [], 0.0
+    state = _resumable_state(checkpoint_dir / LAST, config, data_fingerprint)
+    if state is None:  # nothing stale may survive a fresh start
+        for stale in (LAST, BEST):
+            (checkpoint_dir / stale).unlink(missing_ok=True)
+    else:
+        for key, module in modules.items():
+            module.load_state_dict(state["modules"][key])
+        for key, opt in optimizers.items():
+            opt.load_state_dict(state["optimizers"][key])
+        generator.set_state(state["rng"]["generator"])
+        torch.set_rng_state(state["rng"]["torch"])
+        start, best_epoch, best_val = state["epoch"] + 1, state["best_epoch"], state["best_val"]
+        history, seconds = list(state["history"]), state["train_seconds"]
+    bar = tqdm(range(start, epochs), desc=f"train {name}", initial=start, total=epochs, leave=False)
+    for epoch in bar:
+        t0 = time.perf_counter()
+        for module in modules.values():
+            module.train()
+        losses = train_epoch(epoch)
+        for module in modules.values():
+            module.eval()
+        with torch.no_grad():
+            val = float(validate())
+        seconds += time.perf_counter() - t0
+        history.append({"epoch": epoch, **losses, "val_ade": val})
+        if val < best_val or best_epoch < 0:
+            best_epoch, best_val = epoch, val
+            save_atomic({"format": CHECKPOINT_FORMAT, "config": config, "meta": meta, "epoch": epoch,
+                         "val_ade": val, "modules": _state_dicts(modules)}, checkpoint_dir / BEST)
+        save_atomic({
+            "format": CHECKPOINT_FORMAT, "config": config, "meta": meta, "epoch": epoch,
+            "data_fingerprint": data_fingerprint,
+            "best_epoch": best_epoch, "best_val": best_val, "history": history,
+            "train_seconds": seconds, "modules": _state_dicts(modules),
+            "optimizers": {k: o.state_dict() for k, o in optimizers.items()},
+            "rng": {"generator": generator.get_state(), "torch": torch.get_rng_state()},
+        }, checkpoint_dir / LAST)
+        bar.set_postfix(val_ade=f"{val:.1f}", best=f"{best_val:.1f}@{best_epoch}")
+    if best_epoch < 0:
+        raise ValueError(f"{name}: no epoch trained (epochs = {epochs})")
+    best = load_checkpoint(checkpoint_dir / BEST)
+    for key, module in modules.items():
+        module.load_state_dict(best["modules"][key])
+        module.eval()
+    return FitResult(best_epoch=best_epoch, best_val_ade=best_val, epochs=len(history),
+                     train_seconds=seconds, history=history)
+
+
+def _state_dicts(modules: dict[str, nn.Module]) -> dict[str, dict[str, torch.Tensor]]:
+    return {k: {n: t.detach().clone() for n, t in m.state_dict().items()} for k, m in modules.items()}
+
+
+def _resumable_state(path: Path, config: dict[str, Any], data_fingerprint: str) -> dict[str, Any] | None:
+    """The state in `path` if training can continue from it, else None (with a notice why)."""
+    if not path.exists():
+        return None
+    state = load_checkpoint(path)
+    changed = sorted(k for k in set(state["config"]) | set(config)
+                     if k not in RESUMABLE_CHANGES and state["config"].get(k) != config.get(k))
+    if state.get("data_fingerprint") != data_fingerprint:
+        changed.append("training data or seed")
+    if state["epoch"] + 1 > config.get("epochs", 0):
+        changed.append("epochs (fewer than already trained)")
+    if changed:
+        tqdm.write(f"{path}: trained with other {', '.join(changed)}; starting afresh")
+        return None
+    return state
+
+
+def fingerprint(seed: int, *arrays: WindowArrays) -> str:
+    """SHA-256 of the seed and the windows (ids, scenes, frames, positions) a model is fitted on."""
+    digest = hashlib.sha256(str(seed).encode())
+    for a in arrays:
+        for values in (a.window_id, a.first_frame, a.past, a.future):
+            digest.update(np.ascontiguousarray(values).tobytes())
+        digest.update("\x00".join(a.scene_id.astype(str)).encode())
+    return digest.hexdigest()
+
+
+def fit_result_from(checkpoint_dir: Path) -> FitResult:
+    """The FitResult recorded in a checkpoint directory's `last.pt`."""
+    state = load_checkpoint(Path(checkpoint_dir) / LAST)
+    return FitResult(best_epoch=state["best_epoch"], best_val_ade=state["best_val"],
+                     epochs=len(state["history"]), train_seconds=state["train_seconds"],
+                     history=list(state["history"]))
+
+
+def save_json_atomic(obj: Any, path: Path) -> None:
+    """JSON to a temporary file in the same directory, then renamed over `path`."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp.write_text(json.dumps(obj, indent=2) + "\n")
+    os.replace(tmp, path)

@@ -1,0 +1,83 @@
+"""The shared metric on hand-made numbers (3-4-5 triangles, so every distance is exact)."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from pipeline.metrics import ade_fde, goal_errors, step_errors, summarize, window_errors
+
+# Window 0: sample 0 is best on ADE (errors 0, 4 -> ADE 2, FDE 4), sample 1 best on FDE (3, 3 ->
+# ADE 3, FDE 3): the independent minima (2, 3) mix samples, the joint FDE is 4.
+# Window 1: sample 1 is exact (best on both); sample 0 is off by 5 and 10 (ADE 7.5, FDE 10).
+TRUTH = np.array([
+    [[1.0, 0.0], [2.0, 0.0]],
+    [[3.0, 4.0], [6.0, 8.0]],
+])  # (N=2, n_f=2, 2)
+PRED = np.array([
+    [[[1.0, 0.0], [2.0, 4.0]], [[1.0, 3.0], [2.0, 3.0]]],
+    [[[0.0, 0.0], [0.0, 0.0]], [[3.0, 4.0], [6.0, 8.0]]],
+])  # (N=2, K=2, n_f=2, 2)
+
+
+def test_step_errors_are_l2_distances():
+    np.testing.assert_array_equal(step_errors(PRED, TRUTH), [[[0, 4], [3, 3]], [[5, 10], [0, 0]]])
+
+
+def test_independent_and_joint_minima_differ():
+    errors = window_errors(PRED, TRUTH)
+    np.testing.assert_array_equal(errors.ade, [2.0, 0.0])
+    np.testing.assert_array_equal(errors.fde, [3.0, 0.0])
+    np.testing.assert_array_equal(errors.fde_joint, [4.0, 0.0])
+    np.testing.assert_array_equal(errors.best_ade_sample, [0, 1])
+    np.testing.assert_array_equal(errors.best_fde_sample, [1, 1])
+    assert errors.k == 2
+    assert summarize(errors) == {"ade": 1.0, "fde": 1.5, "ade_joint": 1.0, "fde_joint": 2.0,
+                                 "k": 2, "n_windows": 2}
+
+
+def test_goals_replace_the_path_end_for_fde_only():
+    # Window 0: sample 0's goal is 3 px off (path end 4 px), sample 1's goal is exact.
+    goals = np.array([[[2.0, 3.0], [2.0, 0.0]], [[6.0, 8.0], [12.0, 16.0]]])  # (N, K, 2)
+    np.testing.assert_array_equal(goal_errors(goals, TRUTH), [[3, 0], [0, 10]])
+    errors = window_errors(PRED, TRUTH, goals)
+    np.testing.assert_array_equal(errors.ade, [2.0, 0.0])  # ADE still from the paths
+    np.testing.assert_array_equal(errors.fde, [0.0, 0.0])  # min over goals
+    np.testing.assert_array_equal(errors.fde_joint, [3.0, 10.0])  # goal of the best-ADE sample
+    assert ade_fde(PRED, TRUTH, goals)["fde_joint"] == 6.5
+
+
+def test_single_sample_is_plain_ade_fde():
+    pred = PRED[:, :1]  # (N, 1, n_f, 2)
+    assert ade_fde(pred, TRUTH) == {"ade": 4.75, "fde": 7.0, "ade_joint": 4.75, "fde_joint": 7.0,
+                                    "k": 1, "n_windows": 2}
+
+
+def test_ties_go_to_the_first_sample():
+    pred = np.repeat(PRED[:, :1], 3, axis=1)
+    errors = window_errors(pred, TRUTH)
+    np.testing.assert_array_equal(errors.best_ade_sample, [0, 0])
+    np.testing.assert_array_equal(errors.best_fde_sample, [0, 0])
+
+
+def test_torch_inputs_give_the_same_numbers():
+    expected = ade_fde(PRED, TRUTH)
+    got = ade_fde(torch.tensor(PRED, dtype=torch.float32), torch.tensor(TRUTH, dtype=torch.float32))
+    assert got == expected
+
+
+def test_empty_input_gives_nan_means():
+    summary = ade_fde(np.zeros((0, 20, 30, 2)), np.zeros((0, 30, 2)))
+    assert math.isnan(summary["ade"]) and summary["n_windows"] == 0 and summary["k"] == 20
+
+
+@pytest.mark.parametrize("pred, truth, goals", [
+    (PRED[0], TRUTH, None),  # predictions without the sample axis
+    (PRED, TRUTH[:1], None),  # window count differs
+    (PRED, TRUTH[:, :1], None),  # horizon differs
+    (PRED, TRUTH, np.zeros((2, 3, 2))),  # goals with another K
+])
+def test_mismatched_shapes_fail(pred, truth, goals):
+    with pytest.raises(ValueError):
+        window_errors(pred, truth, goals)

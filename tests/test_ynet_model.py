@@ -1,0 +1,147 @@
+import pytest
+import torch
+import torch.nn.functional as F
+from torch.testing import assert_close
+
+from ynet.heatmaps import distance_maps, gaussian_heatmaps, scene_and_past
+from ynet.loss import ynet_loss
+from ynet.model import Decoder, Encoder, YNet, YNetConfig, shared_input_conv
+from ynet.sampling import SamplingOptions, predict, softargmax
+
+torch.set_num_threads(1)
+
+# 5 levels like the real model, few channels: maps must be multiples of 32
+TINY = YNetConfig(
+    obs_len=3,
+    pred_len=6,
+    semantic_classes=2,
+    encoder_channels=(8, 16, 16, 16, 16),
+    decoder_channels=(16, 16, 16, 16, 8),
+    waypoints=(2, 5),
+)
+# 3 levels: maps must be multiples of 8
+SHALLOW = YNetConfig(
+    obs_len=2,
+    pred_len=4,
+    semantic_classes=3,
+    encoder_channels=(4, 8, 8),
+    decoder_channels=(8, 8, 4),
+    waypoints=(1, 3),
+)
+
+
+def n_params(module):
+    return sum(p.numel() for p in module.parameters())
+
+
+def test_parameter_count_matches_authors():
+    sdd = YNetConfig(obs_len=5, pred_len=30, semantic_classes=6, waypoints=(14, 29))
+    assert n_params(YNet(sdd)) == 1_654_022
+
+
+def test_config_checks():
+    with pytest.raises(ValueError, match="goal"):
+        YNetConfig(pred_len=30, waypoints=(14, 28))
+    with pytest.raises(ValueError, match="increasing"):
+        YNetConfig(pred_len=30, waypoints=(29, 14))
+    with pytest.raises(ValueError, match="decoder_channels"):
+        YNetConfig(decoder_channels=(64, 32))
+    assert TINY.in_channels == 5 and TINY.n_waypoints == 2
+
+
+@pytest.mark.parametrize("cfg,h,w", [(TINY, 64, 96), (SHALLOW, 24, 40)])
+def test_module_shapes(cfg, h, w):
+    torch.manual_seed(0)
+    b, levels = 2, len(cfg.encoder_channels)
+    x = torch.rand(b, cfg.in_channels, h, w)
+    features = Encoder(cfg)(x)
+    assert [f.shape for f in features] == [
+        (b, c, h // 2**i, w // 2**i) for i, c in enumerate([*cfg.encoder_channels, cfg.encoder_channels[-1]])
+    ]
+    assert len(features) == levels + 1
+    goal = Decoder(cfg)(features)
+    assert goal.shape == (b, cfg.pred_len, h, w)
+    cond = torch.rand(b, cfg.n_waypoints, h, w)
+    assert Decoder(cfg, n_cond=cfg.n_waypoints)(features, cond).shape == (b, cfg.pred_len, h, w)
+    with pytest.raises(ValueError, match="conditioning"):
+        Decoder(cfg)(features, cond)
+
+    model = YNet(cfg)
+    goal_logits, traj_logits = model(x, cond)
+    assert goal_logits.shape == traj_logits.shape == (b, cfg.pred_len, h, w)
+    k = 3
+    many = model.predict_trajectory(model.encode(x), torch.rand(b, k, cfg.n_waypoints, h, w))
+    assert many.shape == (b, k, cfg.pred_len, h, w)
+
+
+def test_batched_samples_equal_one_at_a_time():
+    """K samples per window through the shared-skip path == each sample decoded on its own."""
+    torch.manual_seed(0)
+    model = YNet(SHALLOW)
+    x = torch.rand(2, SHALLOW.in_channels, 16, 24)
+    maps = torch.rand(2, 4, SHALLOW.n_waypoints, 16, 24) * 2  # (B, K, n_w, H, W)
+    features = model.encode(x)
+    batched = model.predict_trajectory(features, maps)
+    for k in range(4):
+        assert_close(batched[:, k], model.predict_trajectory(features, maps[:, k]), rtol=1e-4, atol=1e-5)
+
+
+def test_shared_input_conv_equals_concatenated_conv():
+    torch.manual_seed(0)
+    conv = torch.nn.Conv2d(3 + 4 + 2, 5, 3, padding=1)
+    up, skip, cond = torch.rand(6, 3, 8, 8), torch.rand(2, 4, 8, 8), torch.rand(6, 2, 8, 8)
+    out = shared_input_conv(conv, skip, before=up, after=cond)  # K = 3 samples per window
+    expected = conv(torch.cat([up, skip.repeat_interleave(3, 0), cond], 1))
+    assert_close(out, expected, rtol=1e-5, atol=1e-5)
+
+
+def test_channels_last_matches_contiguous():
+    torch.manual_seed(0)
+    model = YNet(TINY)
+    x, cond = torch.rand(1, TINY.in_channels, 64, 64), torch.rand(1, 2, 64, 64)
+    ref = model(x, cond)
+    model_cl = model.to(memory_format=torch.channels_last)
+    out = model_cl(x.contiguous(memory_format=torch.channels_last), cond)
+    for a, b in zip(out, ref):
+        assert_close(a, b, rtol=1e-4, atol=1e-4)
+
+
+def test_loss_is_scaled_bce_of_both_decoders():
+    g, t, target = torch.randn(2, 4, 8, 8), torch.randn(2, 4, 8, 8), torch.rand(2, 4, 8, 8) / 64
+    loss = ynet_loss(g, t, target, loss_scale=1000.0)
+    bce = lambda z: (-(target * F.logsigmoid(z) + (1 - target) * F.logsigmoid(-z))).mean()  # noqa: E731
+    assert_close(loss.goal, 1000 * bce(g))
+    assert_close(loss.trajectory, 1000 * bce(t))
+    assert_close(loss.total, loss.goal + loss.trajectory)
+
+
+def test_tiny_model_overfits_one_trajectory():
+    """Training on one window makes the full inference (softargmax goal, CWS waypoint, trajectory
+    decoder softargmax) land within a few pixels of it."""
+    torch.manual_seed(1)
+    h = w = 64
+    model = YNet(TINY)
+    # start the heads at the log prior of a one-pixel target, so 300 steps suffice
+    for head in (model.goal_decoder.head, model.trajectory_decoder.head):
+        torch.nn.init.constant_(head.bias, -8.0)
+    s = torch.linspace(0, 1, TINY.obs_len + TINY.pred_len)
+    track = torch.stack([10 + 40 * s, 50 - 30 * s], -1)[None]  # (1, 9, 2), straight, constant speed
+    past, future = track[:, : TINY.obs_len], track[:, TINY.obs_len :]
+    x = scene_and_past(torch.softmax(torch.randn(1, 2, h, w), 1), past)
+    target = gaussian_heatmaps(future, h, w, sigma=3.0)
+    waypoint_maps = distance_maps(future[:, list(TINY.waypoints)], h, w)
+    opt = torch.optim.Adam(model.parameters(), lr=3e-3)
+    for _ in range(300):
+        loss = ynet_loss(*model(x, waypoint_maps), target).total
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+
+    with torch.no_grad():
+        assert (softargmax(model(x, waypoint_maps)[1]) - future).norm(dim=-1).mean() < 2.0
+    options = SamplingOptions(K_e=1, K_a=1)
+    pred = predict(model, x, past[:, -1], options, torch.Generator().manual_seed(0))
+    ade = (pred.trajectory[0, 0] - future[0]).norm(dim=-1).mean()
+    fde = (pred.goals[0, 0] - future[0, -1]).norm()
+    assert ade < 3.0, ade
+    assert fde < 4.0, fde

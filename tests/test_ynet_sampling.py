@@ -1,0 +1,221 @@
+import math
+
+import pytest
+import torch
+from torch.testing import assert_close
+
+from ynet.heatmaps import scene_and_past
+from ynet.model import YNet, YNetConfig
+from ynet.sampling import (
+    SamplingOptions,
+    cws_prior,
+    cws_waypoints,
+    expected_position,
+    kmeans,
+    predict,
+    sample_positions,
+    sample_waypoints,
+    softargmax,
+    ttst_goals,
+)
+
+torch.set_num_threads(1)
+
+CFG = YNetConfig(
+    obs_len=3,
+    pred_len=6,
+    semantic_classes=2,
+    encoder_channels=(4, 8, 8),
+    decoder_channels=(8, 8, 4),
+    waypoints=(1, 3, 5),
+)
+
+
+def gen(seed=0):
+    return torch.Generator().manual_seed(seed)
+
+
+def two_mode_logits(h=48, w=64):
+    """Goal logits with two blobs, at (x=12, y=10) and (x=50, y=36)."""
+    ys, xs = torch.meshgrid(torch.arange(h * 1.0), torch.arange(w * 1.0), indexing="ij")
+    blob = lambda x, y: torch.exp(-((xs - x) ** 2 + (ys - y) ** 2) / (2 * 3.0**2))  # noqa: E731
+    return 8 * (blob(12, 10) + blob(50, 36)) - 6  # (H, W)
+
+
+def test_softargmax_one_hot():
+    logits = torch.full((2, 3, 20, 30), -1e4)
+    spots = [[(4, 7), (0, 0), (29, 19)], [(13, 2), (5, 18), (22, 11)]]  # (x, y)
+    for b, row in enumerate(spots):
+        for t, (x, y) in enumerate(row):
+            logits[b, t, y, x] = 0.0
+    assert_close(softargmax(logits), torch.tensor(spots, dtype=torch.float32))
+
+
+def test_softargmax_of_flat_map_is_centre_and_of_two_pixels_is_midpoint():
+    assert_close(softargmax(torch.zeros(1, 9, 5)), torch.tensor([[2.0, 4.0]]))
+    logits = torch.full((1, 10, 10), -1e4)
+    logits[0, 2, 3] = logits[0, 6, 7] = 1.0
+    assert_close(softargmax(logits), torch.tensor([[5.0, 4.0]]))
+    assert_close(expected_position(torch.softmax(logits.flatten(-2), -1).view_as(logits)), softargmax(logits))
+
+
+def test_sample_positions_respects_threshold_and_generator():
+    prob = torch.zeros(2, 8, 8)
+    prob[0, 1, 2], prob[0, 5, 6], prob[0, 7, 7] = 1.0, 1.0, 0.01
+    prob[1, 3, 4] = 1.0
+    a = sample_positions(prob, 500, gen(1), rel_threshold=0.05)
+    assert a.shape == (2, 500, 2)
+    assert set(map(tuple, a[0].tolist())) == {(2.0, 1.0), (6.0, 5.0)}  # (x, y); the 0.01 pixel is cut
+    assert set(map(tuple, a[1].tolist())) == {(4.0, 3.0)}
+    assert torch.equal(a, sample_positions(prob, 500, gen(1), rel_threshold=0.05))
+
+
+def test_kmeans_converges_to_lloyd_fixed_points_and_finds_separated_clusters():
+    g = gen(0)
+    true = torch.tensor([[[0.0, 0.0], [20.0, 0.0], [0.0, 30.0]], [[5.0, 5.0], [-40.0, 10.0], [60.0, 60.0]]])
+    points = (true[:, :, None] + torch.randn(2, 3, 200, 2, generator=g)).flatten(1, 2)  # (2, 600, 2)
+    found = torch.zeros(2, dtype=torch.bool)
+    for seed in range(5):  # random init (like the authors' k-means) can end in a local optimum
+        centres = kmeans(points, 3, gen(seed), tol=1e-8)
+        for b in range(2):
+            owner = torch.cdist(points[b], centres[b]).argmin(1)
+            for c in range(3):  # every centre is the mean of the points it owns
+                assert_close(points[b][owner == c].mean(0), centres[b, c], atol=1e-3, rtol=0)
+            found[b] |= torch.cdist(true[b], centres[b]).min(1).values.max() < 0.5
+    assert found.all()
+
+
+def test_kmeans_restarts_empty_clusters():
+    points = torch.tensor([[[0.0, 0.0]] * 50 + [[10.0, 10.0]] * 50])  # two distinct points only
+    centres = kmeans(points, 4, gen(0))
+    assert centres.shape == (1, 4, 2)
+    assert {tuple(c) for c in centres[0].tolist()} == {(0.0, 0.0), (10.0, 10.0)}
+
+
+def test_ttst_distinct_goals_first_is_softargmax():
+    logits = torch.stack([two_mode_logits(), two_mode_logits().flip(-1)])  # (2, H, W)
+    options = SamplingOptions(K_e=5, temperature=1.0, rel_threshold=0.01)
+    goals = ttst_goals(logits, options, gen(0))
+    assert goals.shape == (2, 5, 2)
+    assert_close(goals[:, 0], softargmax(logits))
+    for b in range(2):
+        d = torch.cdist(goals[b], goals[b]) + torch.eye(5) * 1e9
+        assert d.min() > 0.5  # all K_e goals distinct
+    # cluster centres lie on the two modes
+    near = torch.cdist(goals[0, 1:], torch.tensor([[12.0, 10.0], [50.0, 36.0]])).min(1).values
+    assert near.max() < 8.0
+    assert torch.equal(goals, ttst_goals(logits, options, gen(0)))
+
+
+def covariance(prob):
+    h, w = prob.shape[-2:]
+    ys, xs = torch.meshgrid(torch.arange(h, dtype=prob.dtype), torch.arange(w, dtype=prob.dtype), indexing="ij")
+    mean = expected_position(prob)
+    v = torch.stack([xs - mean[0], ys - mean[1]], -1)  # (H, W, 2)
+    return mean, torch.einsum("hw,hwi,hwj->ij", prob, v, v)
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 30.0, 90.0, 135.0])
+def test_cws_prior_centred_on_constant_velocity_point_and_long_along_travel(angle_deg):
+    h = w = 160
+    last = torch.tensor([[80.0, 80.0]])
+    a = math.radians(angle_deg)
+    goal = last + 60 * torch.tensor([[[math.cos(a), math.sin(a)]]])  # (1, 1, 2)
+    sigma_factor, ratio = 6.0, 2.0
+    prior = cws_prior(last, goal, 0.5, sigma_factor, ratio, True, h, w)[0, 0]  # (H, W)
+    assert_close(prior.sum(), torch.tensor(1.0))
+    mean, cov = covariance(prior.double())
+    assert_close(mean.float(), ((last[0] + goal[0, 0]) / 2), atol=1e-3, rtol=0)
+    evals, evecs = torch.linalg.eigh(cov)
+    principal = evecs[:, 1].float()  # largest variance
+    assert abs(principal @ torch.tensor([math.cos(a), math.sin(a)])) == pytest.approx(1.0, abs=1e-4)
+    sigma = (60 + 5) / sigma_factor
+    assert math.sqrt(evals[1]) == pytest.approx(sigma, rel=1e-2)
+    assert math.sqrt(evals[0]) == pytest.approx(sigma / ratio, rel=2e-2)
+
+
+def test_cws_prior_without_rotation_is_axis_aligned():
+    last = torch.tensor([[60.0, 60.0]])
+    goal = torch.tensor([[[100.0, 60.0]]])  # travel along x
+    prior = cws_prior(last, goal, 0.5, 6.0, 2.0, False, 120, 120)[0, 0]
+    _, cov = covariance(prior.double())
+    assert abs(cov[0, 1]) < 1e-6
+    assert math.sqrt(cov[1, 1] / cov[0, 0]) == pytest.approx(2.0, rel=1e-2)  # wide in y, narrow in x
+
+
+def test_cws_flat_waypoint_maps_give_the_prior_means():
+    """With uninformative waypoint maps, path 0 puts each waypoint at its prior's centre: 1/3 and then
+    1/2 of the way back to the agent for two intermediate waypoints."""
+    h = w = 200
+    logits = torch.zeros(1, 3, h, w)
+    last = torch.tensor([[100.0, 100.0]])
+    goals = torch.tensor([[[160.0, 40.0], [40.0, 130.0]]])  # (1, K=2, 2)
+    options = SamplingOptions(K_e=2, K_a=1, temperature=1.0)
+    wp = cws_waypoints(logits, goals, last, options, gen(0))  # (1, 2, 3, 2)
+    assert_close(wp[:, :, 2], goals)
+    second = goals + (last[:, None] - goals) / 3
+    assert_close(wp[:, :, 1], second, atol=1e-3, rtol=0)
+    assert_close(wp[:, :, 0], second + (last[:, None] - second) / 2, atol=1e-3, rtol=0)
+
+
+@pytest.mark.parametrize(
+    "use_ttst,use_cws,K_a", [(True, True, 1), (True, True, 3), (False, True, 2), (True, False, 2), (False, False, 1)]
+)
+def test_sample_waypoints_shapes_and_order(use_ttst, use_cws, K_a):
+    logits = two_mode_logits()[None, None].repeat(2, 3, 1, 1)  # (B=2, n_w=3, H, W)
+    last = torch.tensor([[30.0, 20.0], [10.0, 40.0]])
+    options = SamplingOptions(
+        K_e=4, K_a=K_a, use_ttst=use_ttst, use_cws=use_cws, temperature=1.0, rel_threshold=0.01
+    )
+    wp = sample_waypoints(logits, last, options, gen(0))
+    assert wp.shape == (2, 4 * K_a, 3, 2)
+    # path-major: every path repeats the same K_e goals
+    for a in range(K_a):
+        assert torch.equal(wp[:, a * 4 : (a + 1) * 4, -1], wp[:, :4, -1])
+    assert ((wp >= 0) & (wp[..., 0] <= 63)[..., None] & (wp[..., 1] <= 47)[..., None]).all()
+    if use_ttst:
+        assert_close(wp[:, 0, -1], softargmax(logits[:, -1]))
+    assert torch.equal(wp, sample_waypoints(logits, last, options, gen(0)))
+
+
+def test_options_checks():
+    with pytest.raises(ValueError):
+        SamplingOptions(K_e=0)
+    with pytest.raises(ValueError, match="sigma_factor"):
+        SamplingOptions(K_a=7, sigma_factor=6.0)
+    assert SamplingOptions(K_e=20, K_a=5).K == 100
+
+
+@pytest.mark.parametrize("bf16", [False, True])
+def test_predict_shapes_and_determinism(bf16):
+    torch.manual_seed(0)
+    model = YNet(CFG)
+    h, w = 40, 48
+    past = torch.rand(2, CFG.obs_len, 2) * torch.tensor([w - 1.0, h - 1.0])
+    x = scene_and_past(torch.softmax(torch.randn(2, CFG.semantic_classes, h, w), 1), past, 60.0)
+    options = SamplingOptions(K_e=5, K_a=2, temperature=1.0, rel_threshold=0.01)
+    runs = [predict(model, x, past[:, -1], options, gen(7), 60.0, chunk_size=3, bf16=bf16) for _ in range(2)]
+    p = runs[0]
+    assert p.trajectory.shape == (2, 10, CFG.pred_len, 2)
+    assert p.goals.shape == (2, 10, 2) and p.waypoints.shape == (2, 10, CFG.n_waypoints, 2)
+    assert torch.equal(p.goals, p.waypoints[:, :, -1])
+    for field in ("trajectory", "goals", "waypoints"):
+        assert torch.equal(getattr(runs[0], field), getattr(runs[1], field))  # bit-identical
+    other = predict(model, x, past[:, -1], options, gen(8), 60.0, chunk_size=3, bf16=bf16)
+    assert not torch.equal(other.waypoints, p.waypoints)
+    # chunking does not change the result
+    whole = predict(model, x, past[:, -1], options, gen(7), 60.0, chunk_size=10, bf16=bf16)
+    assert_close(whole.trajectory, p.trajectory, rtol=1e-4, atol=1e-3 if bf16 else 1e-4)
+
+
+def test_predict_bf16_changes_only_the_trajectory_decoder():
+    torch.manual_seed(0)
+    model = YNet(CFG)
+    h, w = 40, 48
+    past = torch.rand(1, CFG.obs_len, 2) * torch.tensor([w - 1.0, h - 1.0])
+    x = scene_and_past(torch.softmax(torch.randn(1, CFG.semantic_classes, h, w), 1), past, 60.0)
+    options = SamplingOptions(K_e=4, K_a=2, temperature=1.0, rel_threshold=0.01)
+    fp32 = predict(model, x, past[:, -1], options, gen(3), 60.0)
+    bf16 = predict(model, x, past[:, -1], options, gen(3), 60.0, bf16=True)
+    assert torch.equal(fp32.waypoints, bf16.waypoints)
+    assert_close(bf16.trajectory, fp32.trajectory, rtol=0, atol=0.5)

@@ -1,0 +1,344 @@
+"""From heatmaps to positions: softargmax, the Test-Time Sampling Trick (TTST), Conditioned Waypoint
+Sampling (CWS), and `predict`, which runs the whole inference for a batch of windows.
+
+Positions are `(x, y)` in pixels of the padded map (x = column, y = row; see `ynet.heatmaps`).
+Randomness only comes from the `torch.Generator` passed in: same generator state, same inputs, same
+thread count -> bit-identical results. The K = K_e * K_a samples of a window are ordered path-major:
+sample `k` is goal `k % K_e` with aleatoric path `k // K_e` (as the authors order them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+
+from ynet.heatmaps import distance_maps
+from ynet.model import YNet
+
+
+@dataclass(frozen=True)
+class SamplingOptions:
+    """How `predict` draws goals and waypoints. Defaults: the authors' long-term SDD config."""
+
+    K_e: int = 20
+    """Goals per window (epistemic samples)."""
+    K_a: int = 1
+    """Paths per goal (aleatoric samples): sets of waypoints drawn for each goal."""
+    temperature: float = 1.8
+    """Goal/waypoint maps are sigmoid(logits / temperature) before sampling; higher = more diverse."""
+    rel_threshold: float = 0.002
+    """Goal pixels below rel_threshold * max are never sampled (outlier suppression)."""
+    use_ttst: bool = True
+    """TTST: k-means over many samples. False: the K_e goals are plain draws from the goal map."""
+    use_cws: bool = True
+    """CWS: waypoints conditioned on the goal. False: each waypoint drawn from its map independently."""
+    sigma_factor: float = 6.0
+    """CWS prior width: sigma = (distance + 5) / sigma_factor along the direction of travel."""
+    ratio: float = 2.0
+    """CWS prior: sigma across the direction of travel is sigma / ratio."""
+    rot: bool = True
+    """CWS prior rotated to the direction of travel; False: axis-aligned (narrow in x, wide in y)."""
+    ttst_samples: int = 10_000
+    """Points drawn from the goal map for TTST's k-means."""
+    kmeans_max_iter: int = 1000
+    kmeans_tol: float = 1e-3
+    """k-means stops when (sum of the centres' moves)^2 < tol, as kmeans_pytorch does."""
+    cws_rel_threshold: float = 0.05
+    """Paths after the first draw waypoints from pixels above this fraction of the map's maximum."""
+
+    def __post_init__(self):
+        if self.K_e < 1 or self.K_a < 1:
+            raise ValueError("K_e and K_a must be at least 1")
+        if self.temperature <= 0:
+            raise ValueError("temperature must be positive")
+        if not (0 <= self.rel_threshold < 1 and 0 <= self.cws_rel_threshold < 1):
+            raise ValueError("relative thresholds must lie in [0, 1)")
+        if self.use_ttst and self.ttst_samples < self.K_e:
+            raise ValueError("ttst_samples must be at least K_e")
+        if self.use_cws and self.sigma_factor - (self.K_a - 1) <= 0:
+            # path a uses sigma_factor - a
+            raise ValueError(f"CWS needs sigma_factor > K_a - 1, got {self.sigma_factor} and {self.K_a}")
+
+    @property
+    def K(self) -> int:
+        return self.K_e * self.K_a
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """`predict`'s output, in map pixels. ADE uses `trajectory`; FDE uses `goals` (the sampled goal,
+    not the trajectory decoder's last step), as the authors do."""
+
+    trajectory: torch.Tensor  # (B, K, n_f, 2) softargmax of every trajectory heatmap
+    goals: torch.Tensor  # (B, K, 2) the sampled goal of each sample
+    waypoints: torch.Tensor  # (B, K, n_w, 2) the sampled waypoints, goal last
+
+
+def _coords(height: int, width: int, like: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    ys = torch.arange(height, dtype=like.dtype, device=like.device)
+    xs = torch.arange(width, dtype=like.dtype, device=like.device)
+    return ys, xs
+
+
+def expected_position(prob: torch.Tensor) -> torch.Tensor:
+    """Mean position of maps that already sum to 1: (..., H, W) -> (..., 2) as (x, y)."""
+    ys, xs = _coords(prob.shape[-2], prob.shape[-1], prob)
+    x = (prob.sum(-2) * xs).sum(-1)  # (...)
+    y = (prob.sum(-1) * ys).sum(-1)
+    return torch.stack([x, y], dim=-1)
+
+
+def softargmax(logits: torch.Tensor) -> torch.Tensor:
+    """The paper's robust argmax: the mean position under a spatial softmax of each map.
+
+    logits (..., H, W) -> (..., 2) as (x, y).
+    """
+    prob = torch.softmax(logits.flatten(-2), dim=-1).view_as(logits)  # (..., H, W)
+    return expected_position(prob)
+
+
+def sample_positions(
+    prob: torch.Tensor,
+    num_samples: int,
+    generator: torch.Generator,
+    rel_threshold: float | None = None,
+) -> torch.Tensor:
+    """Pixels drawn with replacement from non-negative maps: (..., H, W) -> (..., num_samples, 2).
+
+    Positions are pixel centres (whole numbers). `rel_threshold` zeroes pixels below that fraction
+    of each map's maximum first.
+    """
+    height, width = prob.shape[-2:]
+    flat = prob.reshape(-1, height * width)  # (N, H*W)
+    if rel_threshold:
+        keep = flat >= flat.amax(-1, keepdim=True) * rel_threshold
+        flat = torch.where(keep, flat, torch.zeros_like(flat))
+    idx = torch.multinomial(flat, num_samples, replacement=True, generator=generator)  # (N, S)
+    xy = torch.stack([idx % width, torch.div(idx, width, rounding_mode="floor")], dim=-1)
+    return xy.to(prob.dtype).reshape(*prob.shape[:-2], num_samples, 2)
+
+
+def kmeans(
+    points: torch.Tensor,
+    k: int,
+    generator: torch.Generator,
+    max_iter: int = 1000,
+    tol: float = 1e-3,
+) -> torch.Tensor:
+    """Lloyd's k-means on many point sets at once: (N, P, 2) -> centres (N, k, 2).
+
+    Like kmeans_pytorch (the authors' choice): initial centres are k distinct random points of each
+    set; a cluster that empties restarts at a random point; a set stops updating once the squared sum
+    of its centres' moves drops below `tol`.
+    """
+    n, p, _ = points.shape
+    first = torch.rand(n, p, generator=generator).argsort(dim=-1)[:, :k]  # (N, k) distinct indices
+    centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))  # (N, k, 2)
+    active = torch.ones(n, dtype=torch.bool)
+    for _ in range(max_iter):
+        dist = torch.cdist(points, centres, compute_mode="donot_use_mm_for_euclid_dist")  # (N, P, k)
+        onehot = F.one_hot(dist.argmin(-1), k).to(points.dtype)  # (N, P, k)
+        counts = onehot.sum(1)  # (N, k)
+        new = onehot.transpose(1, 2) @ points / counts.clamp_min(1)[..., None]  # (N, k, 2)
+        empty = counts == 0
+        if empty.any():
+            restart = torch.randint(p, (n, k), generator=generator)
+            restart = torch.gather(points, 1, restart[..., None].expand(n, k, 2))
+            new = torch.where(empty[..., None], restart, new)
+        shift = (new - centres).square().sum(-1).sqrt().sum(-1)  # (N,)
+        centres = torch.where(active[:, None, None], new, centres)
+        active &= shift.square() >= tol
+        if not active.any():
+            break
+    return centres
+
+
+def ttst_goals(
+    goal_logits: torch.Tensor, options: SamplingOptions, generator: torch.Generator
+) -> torch.Tensor:
+    """TTST: K_e goals per window from goal logits (B, H, W) -> (B, K_e, 2).
+
+    Goal 0 is the softargmax of the raw logits; the other K_e - 1 are k-means centres of
+    `ttst_samples` draws from sigmoid(logits / T), pixels below rel_threshold * max suppressed.
+    Clustering many draws spreads the few goals over the modes instead of wasting them nearby.
+    """
+    best = softargmax(goal_logits)[:, None]  # (B, 1, 2)
+    if options.K_e == 1:
+        return best
+    prob = torch.sigmoid(goal_logits / options.temperature)  # (B, H, W)
+    draws = sample_positions(prob, options.ttst_samples, generator, options.rel_threshold)  # (B, S, 2)
+    centres = kmeans(draws, options.K_e - 1, generator, options.kmeans_max_iter, options.kmeans_tol)
+    return torch.cat([best, centres], dim=1)  # (B, K_e, 2)
+
+
+def cws_log_prior(
+    mean: torch.Tensor,
+    travel: torch.Tensor,
+    sigma_factor: torch.Tensor,
+    ratio: float,
+    rot: bool,
+    height: int,
+    width: int,
+) -> torch.Tensor:
+    """Log of CWS's Gaussian prior, up to a constant: (B, K, H, W).
+
+    mean: (B, K, 2) the constant-velocity point; travel: (B, K, 2) last observed position minus the
+    later point (goal or later waypoint); sigma_factor: (K,) per sample. Its standard deviation is
+    sigma = (|travel| + 5) / sigma_factor along the direction of travel and sigma / ratio across it
+    (the "+5" keeps it positive when goal and agent coincide). With `rot=False` the axes stay fixed:
+    sigma along y, sigma / ratio along x. (The authors' code; the paper's text says the opposite
+    orientation, narrow along the travel direction.)
+    """
+    ys, xs = _coords(height, width, mean)
+    sigma = (travel.norm(dim=-1) + 5.0) / sigma_factor  # (B, K)
+    if rot:
+        # angle from the y axis, as upstream: travel = 0 gives the unrotated prior
+        angle = torch.atan2(travel[..., 0], travel[..., 1])
+        ux, uy = torch.sin(angle), torch.cos(angle)  # (B, K) unit direction of travel
+    else:
+        ux, uy = torch.zeros_like(sigma), torch.ones_like(sigma)
+    vx = (xs - mean[..., 0, None])[..., None, :]  # (B, K, 1, W)
+    vy = (ys - mean[..., 1, None])[..., :, None]  # (B, K, H, 1)
+    along = vx * ux[..., None, None] + vy * uy[..., None, None]  # (B, K, H, W)
+    across = vy * ux[..., None, None] - vx * uy[..., None, None]
+    s_along = sigma[..., None, None]
+    s_across = s_along / ratio
+    return -0.5 * ((along / s_along).square() + (across / s_across).square())
+
+
+def cws_prior(
+    last_observed: torch.Tensor,
+    later: torch.Tensor,
+    fraction: float,
+    sigma_factor: float,
+    ratio: float,
+    rot: bool,
+    height: int,
+    width: int,
+) -> torch.Tensor:
+    """CWS's prior for a waypoint, normalised to sum 1: (B, K, H, W).
+
+    Centred on the point `fraction` of the way from `later` (B, K, 2) back to `last_observed` (B, 2).
+    """
+    travel = last_observed[:, None] - later  # (B, K, 2)
+    mean = later + travel * fraction
+    factor = torch.full((later.shape[1],), float(sigma_factor), dtype=later.dtype)
+    logp = cws_log_prior(mean, travel, factor, ratio, rot, height, width)
+    return torch.softmax(logp.flatten(-2), -1).view_as(logp)
+
+
+def cws_waypoints(
+    waypoint_logits: torch.Tensor,
+    goals: torch.Tensor,
+    last_observed: torch.Tensor,
+    options: SamplingOptions,
+    generator: torch.Generator,
+) -> torch.Tensor:
+    """CWS: waypoints conditioned on each sampled goal, from the last waypoint back to the first.
+
+    waypoint_logits: (B, n_w, H, W), goal last; goals: (B, K_a*K_e, 2) path-major; last_observed:
+    (B, 2) -> (B, K_a*K_e, n_w, 2), goal last. For waypoint i (0-based, goal excluded) the prior is
+    centred 1 / (i + 2) of the way from the later point back to the agent (the authors' equal-spacing
+    rule; the midpoint for a single waypoint), multiplied with sigmoid(logits_i / T) and renormalised
+    (here as a softmax of the summed logs, which cannot underflow to 0 / 0). Path 0 takes the mean
+    position of that map (the authors' "softargmax" of an already normalised map); path a >= 1 draws
+    one pixel (above cws_rel_threshold * max) with sigma_factor - a, so later paths get a tighter
+    prior. Paths are processed one at a time to bound memory at (B, K_e, H, W) per map.
+    """
+    n_w, height, width = waypoint_logits.shape[1:]
+    log_maps = F.logsigmoid(waypoint_logits / options.temperature)  # (B, n_w, H, W)
+    paths = []
+    for a, path_goals in enumerate(goals.split(options.K_e, dim=1)):  # each (B, K_e, 2)
+        sigma_factor = torch.full((path_goals.shape[1],), options.sigma_factor - a, dtype=goals.dtype)
+        chosen = [path_goals]
+        later = path_goals
+        for i in reversed(range(n_w - 1)):
+            travel = last_observed[:, None] - later  # (B, K_e, 2)
+            mean = later + travel / (i + 2)
+            log_prior = cws_log_prior(
+                mean, travel, sigma_factor, options.ratio, options.rot, height, width
+            )  # (B, K_e, H, W)
+            logp = log_maps[:, i, None] + log_prior  # (B, K_e, H, W)
+            prob = torch.softmax(logp.flatten(-2), -1).view_as(logp)
+            if a == 0:
+                later = expected_position(prob)  # (B, K_e, 2)
+            else:
+                later = sample_positions(prob, 1, generator, options.cws_rel_threshold)[:, :, 0]
+            chosen.append(later)
+        paths.append(torch.stack(chosen[::-1], dim=2))  # (B, K_e, n_w, 2)
+    return torch.cat(paths, dim=1)  # (B, K_a*K_e, n_w, 2)
+
+
+def sample_waypoints(
+    waypoint_logits: torch.Tensor,
+    last_observed: torch.Tensor,
+    options: SamplingOptions,
+    generator: torch.Generator,
+) -> torch.Tensor:
+    """Goals and waypoints for every sample: (B, n_w, H, W) logits, goal last -> (B, K_e*K_a, n_w, 2).
+
+    Goals: TTST, or plain draws from sigmoid(goal / T) above rel_threshold. Waypoints: CWS, or one
+    independent draw per sample from each sigmoid(waypoint / T) map.
+    """
+    b, n_w, height, width = waypoint_logits.shape
+    if options.use_ttst:
+        goals = ttst_goals(waypoint_logits[:, -1], options, generator)  # (B, K_e, 2)
+    else:
+        prob = torch.sigmoid(waypoint_logits[:, -1] / options.temperature)
+        goals = sample_positions(prob, options.K_e, generator, options.rel_threshold)
+    goals = goals.repeat(1, options.K_a, 1)  # (B, K, 2), path-major
+    if n_w == 1:
+        return goals[:, :, None]
+    if options.use_cws:
+        return cws_waypoints(waypoint_logits, goals, last_observed, options, generator)
+    prob = torch.sigmoid(waypoint_logits[:, :-1] / options.temperature)  # (B, n_w - 1, H, W)
+    drawn = sample_positions(prob, options.K, generator)  # (B, n_w - 1, K, 2)
+    return torch.cat([drawn.transpose(1, 2), goals[:, :, None]], dim=2)  # (B, K, n_w, 2)
+
+
+def predict(
+    model: YNet,
+    scene_and_past: torch.Tensor,
+    last_observed: torch.Tensor,
+    options: SamplingOptions,
+    generator: torch.Generator,
+    max_distance: float | None = None,
+    chunk_size: int = 8,
+    bf16: bool = False,
+) -> Prediction:
+    """Y-net inference for a batch of windows on one map: K_e * K_a futures per window.
+
+    scene_and_past: (B, C + n_p, H, W) as in training; last_observed: (B, 2) the agent's last
+    observed position; max_distance: the distance-map normaliser used for training (for the goal and
+    waypoint maps given to the trajectory decoder).
+
+    The encoder and the goal decoder run once; the trajectory decoder runs once per sample, batched
+    `chunk_size` samples per window at a time (its encoder skips are shared, see
+    `ynet.model.shared_input_conv`), and only each heatmap's softargmax is kept. Everything runs in
+    channels_last (about 1.5x faster convs on CPU).
+
+    `bf16=True` runs the trajectory decoder (85% of the time) under bfloat16 autocast: about 1.6x
+    faster on CPUs with AMX / AVX512-BF16. Encoder, goal decoder and sampling stay float32, so goals
+    and waypoints (and FDE) are bit-identical to float32; trajectory positions move by a fraction
+    of a pixel (0.01 px mean, 0.04 px max on an overfitted tiny model like the tests').
+    """
+    cfg = model.config
+    height, width = scene_and_past.shape[-2:]
+    x = scene_and_past.contiguous(memory_format=torch.channels_last)
+    with torch.inference_mode():
+        features = model.encode(x)
+        goal_logits = model.predict_goals(features)  # (B, n_f, H, W)
+        waypoint_logits = goal_logits[:, list(cfg.waypoints)].contiguous()  # (B, n_w, H, W)
+        samples = sample_waypoints(waypoint_logits, last_observed.float(), options, generator)
+        steps = []
+        for start in range(0, options.K, chunk_size):
+            chunk = samples[:, start : start + chunk_size]  # (B, k, n_w, 2)
+            maps = distance_maps(chunk.flatten(1, 2), height, width, max_distance)  # (B, k*n_w, H, W)
+            maps = maps.unflatten(1, chunk.shape[1:3])  # (B, k, n_w, H, W)
+            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
+                logits = model.predict_trajectory(features, maps)  # (B, k, n_f, H, W)
+            steps.append(softargmax(logits.float()))  # (B, k, n_f, 2)
+        trajectory = torch.cat(steps, dim=1)  # (B, K, n_f, 2)
+    return Prediction(trajectory=trajectory, goals=samples[:, :, -1], waypoints=samples)
