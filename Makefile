@@ -17,6 +17,7 @@ repro: env
 	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/dvc repro
 
 test: env
+	if [ "$$CI" = true ]; then bash tests/setup_chromium.sh; fi
 	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python -m pytest
 
 bench: env

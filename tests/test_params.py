@@ -8,15 +8,35 @@ from pipeline.fetch import FetchParams
 from pipeline.params import ParamsError, from_dict, load_section, read_params
 from pipeline.splits import SplitParams
 from pipeline.tracks import CompatParams
+from pipeline.evaluate_ynet import CwsParams, EvalParams, TtstParams
+from pipeline.params import load_profile
+from pipeline.report import ReportParams
+from pipeline.train_ynet import YnetSettings
 from pipeline.windows import WindowParams
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
-            "windows": WindowParams}
+            "windows": WindowParams, "report": ReportParams}
 
 
 @pytest.mark.parametrize("key, cls", SECTIONS.items())
 def test_params_yaml_sections_validate(key, cls):
     load_section(cls, key, read_params())
+
+
+PROFILED = {"ynet": YnetSettings, "eval": EvalParams}
+
+
+@pytest.mark.parametrize("profile", ["cpu", "paper"])
+@pytest.mark.parametrize("key, cls", PROFILED.items())
+def test_profiled_sections_validate_for_both_profiles(key, cls, profile):
+    params = {**read_params(), "profile": profile}
+    load_profile(cls, key, params)
+
+
+def test_sampling_sections_validate():
+    params = read_params()
+    load_section(TtstParams, "ttst", params)
+    load_section(CwsParams, "cws", params)
 
 
 @dataclass

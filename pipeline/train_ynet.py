@@ -1,0 +1,281 @@
+"""Stage `train_ynet`: train Y-net on the train split, select the epoch on the val split.
+
+One scene per batch; each epoch visits every train scene under `augmentations` of the 8
+rotation/flip variants (drawn at random per scene and epoch, seeded), its windows in shuffled
+batches. After every epoch: validation ADE/FDE (deterministic: softargmax goal and waypoints, one
+path; model selection never sees the test set), a checkpoint (weights, optimiser, RNG states,
+history) written atomically, and the best weights kept. Re-running after an interruption resumes
+from the last checkpoint.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+import torch
+from tqdm import tqdm
+
+from pipeline.metrics import ade_fde
+from pipeline.params import load_profile, read_params
+from pipeline.semantic_maps import load_semantic_maps
+from pipeline.window_table import WindowArrays, to_arrays
+from pipeline.ynet_data import (AUGMENTATIONS, SceneWindows, augment, group_by_scene,
+                                model_input, padded_semantic, training_batch)
+from ynet.heatmaps import distance_maps, upstream_max_distance
+from ynet.loss import ynet_loss
+from ynet.model import YNet, YNetConfig
+from ynet.sampling import softargmax
+from ynet.segmentation import PAD_CLASS
+
+
+@dataclass
+class YnetSettings:
+    """Section `ynet.<profile>` of params.yaml: Y-net's model and training settings."""
+
+    resize: float = 0.25
+    """Scale of maps and coordinates relative to the original image (authors: 0.25 for SDD)."""
+    epochs: int = 300
+    """Training epochs."""
+    batch_size: int = 8
+    """Windows per batch (all of one scene)."""
+    learning_rate: float = 1e-4
+    """Adam learning rate."""
+    augmentations: int = 8
+    """How many of the 8 rotation/flip variants each scene is seen under per epoch (8 = all)."""
+    loss_scale: float = 1000.0
+    """Factor on both BCE losses (authors: 1000)."""
+    kernel_size: int = 31
+    """Side of the Gaussian ground-truth kernel, pixels of the resized map."""
+    sigma: float = 4.0
+    """Standard deviation of the Gaussian ground truth, pixels of the resized map."""
+    waypoints: list[int] = field(default_factory=lambda: [14, 29])
+    """Future step indices conditioning the trajectory decoder; the last is the goal."""
+    encoder_channels: list[int] = field(default_factory=lambda: [32, 32, 64, 64, 64])
+    decoder_channels: list[int] = field(default_factory=lambda: [64, 64, 64, 32, 32])
+    distance_norm: str = "upstream"
+    """'upstream': distance maps divided by the authors' constant; 'map': by each map's own maximum."""
+    seed: int = 0
+    """Seeds weights, shuffling and augmentation draws."""
+    threads: int = 2
+    """CPU threads for torch."""
+
+    def __post_init__(self):
+        if not 0 < self.resize <= 1:
+            raise ValueError(f"resize must be in (0, 1], got {self.resize}")
+        if not 1 <= self.augmentations <= len(AUGMENTATIONS):
+            raise ValueError(f"augmentations must be 1..{len(AUGMENTATIONS)}")
+        if self.distance_norm not in ("upstream", "map"):
+            raise ValueError("distance_norm must be 'upstream' or 'map'")
+        if min(self.epochs, self.batch_size) < 1:
+            raise ValueError("epochs and batch_size must be positive")
+
+    def model_config(self, n_past: int, n_future: int) -> YNetConfig:
+        return YNetConfig(obs_len=n_past, pred_len=n_future, semantic_classes=6,
+                          encoder_channels=tuple(self.encoder_channels),
+                          decoder_channels=tuple(self.decoder_channels),
+                          waypoints=tuple(self.waypoints))
+
+    @property
+    def max_distance(self) -> float | None:
+        return upstream_max_distance(self.resize) if self.distance_norm == "upstream" else None
+
+
+def scale_waypoints(waypoints: list[int], n_future: int, reference_future: int = 30) -> list[int]:
+    """Waypoint steps for another horizon, at the same fractions of it as the 30-s config's."""
+    # Half rounds up: at t_f = 5 the 15-s waypoint of the 30-s config becomes step 3 (index 2).
+    scaled = sorted({int(np.floor((w + 1) * n_future / reference_future + 0.5)) - 1
+                     for w in waypoints})
+    return [max(0, w) for w in scaled[:-1]] + [n_future - 1]
+
+
+def image_sizes(sdd_root: Path, scene_ids) -> dict[str, tuple[int, int]]:
+    """Original (height, width) of each video's reference image."""
+    sizes = {}
+    for scene_id in scene_ids:
+        scene, video = scene_id.rsplit("_", 1)
+        path = sdd_root / "annotations" / scene / f"video{video}" / "reference.jpg"
+        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        if image is None:
+            raise FileNotFoundError(f"{path}: cannot read the scene image")
+        sizes[scene_id] = image.shape[:2]
+    return sizes
+
+
+def seed_everything(seed: int) -> None:
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+
+
+@torch.inference_mode()
+def deterministic_predict(model: YNet, scene: SceneWindows, settings: YnetSettings,
+                          batch_size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Softargmax waypoints -> one path per window; returns (paths, goals) in resized pixels."""
+    semantic = padded_semantic(scene.semantic, PAD_CLASS)
+    height, width = semantic.shape[-2:]
+    paths, goals = [], []
+    for start in range(0, len(scene), batch_size):
+        past = scene.past[start:start + batch_size]
+        features = model.encode(model_input(semantic, past, settings.max_distance))
+        waypoint_logits = model.predict_goals(features)[:, list(model.config.waypoints)]
+        waypoints = softargmax(waypoint_logits)  # (B, n_w, 2)
+        maps = distance_maps(waypoints, height, width, settings.max_distance)
+        paths.append(softargmax(model.predict_trajectory(features, maps)))  # (B, n_f, 2)
+        goals.append(waypoints[:, -1])
+    return torch.cat(paths).numpy(), torch.cat(goals).numpy()
+
+
+def validate(model: YNet, scenes: list[SceneWindows], settings: YnetSettings) -> dict[str, float]:
+    """Val ADE / FDE in original pixels (deterministic prediction, K = 1)."""
+    model.eval()
+    preds, goals, truths = [], [], []
+    for scene in scenes:
+        path, goal = deterministic_predict(model, scene, settings, settings.batch_size)
+        preds.append(path)
+        goals.append(goal)
+        truths.append(scene.future.numpy())
+    scores = ade_fde(np.concatenate(preds)[:, None] / settings.resize,
+                     np.concatenate(truths) / settings.resize,
+                     np.concatenate(goals)[:, None] / settings.resize)
+    return {"val_ade": scores["ade"], "val_fde": scores["fde"]}
+
+
+def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
+               rng: np.random.Generator) -> list[tuple[int, int, bool, np.ndarray]]:
+    """(scene index, turns, flip, window rows) for every batch of one epoch, shuffled."""
+    plan = []
+    for s, scene in enumerate(scenes):
+        variants = rng.choice(len(AUGMENTATIONS), settings.augmentations, replace=False)
+        for variant in variants:
+            turns, flip = AUGMENTATIONS[variant]
+            order = rng.permutation(len(scene))
+            for start in range(0, len(order), settings.batch_size):
+                plan.append((s, turns, flip, order[start:start + settings.batch_size]))
+    return [plan[i] for i in rng.permutation(len(plan))]
+
+
+def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: YnetSettings,
+                rng: np.random.Generator, epoch: int) -> float:
+    model.train()
+    losses = []
+    plan = epoch_plan(scenes, settings, rng)
+    augmented: dict[tuple[int, int, bool], tuple[SceneWindows, torch.Tensor]] = {}
+    for s, turns, flip, rows in tqdm(plan, desc=f"epoch {epoch}", leave=False, disable=None):
+        key = (s, turns, flip)
+        if key not in augmented:  # the scene's map is prepared once per augmentation
+            scene = augment(scenes[s], turns, flip)
+            augmented[key] = (scene, padded_semantic(scene.semantic, PAD_CLASS))
+        scene, semantic = augmented[key]
+        batch = training_batch(semantic, scene.past[rows], scene.future[rows],
+                               tuple(settings.waypoints), settings.max_distance,
+                               settings.kernel_size, settings.sigma)
+        goal_logits, trajectory_logits = model(batch.inputs, batch.waypoint_maps)
+        loss = ynet_loss(goal_logits, trajectory_logits, batch.target, settings.loss_scale).total
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        optimizer.step()
+        losses.append(loss.item())
+    return float(np.mean(losses))
+
+
+def save_atomic(payload: dict, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    torch.save(payload, tmp)
+    os.replace(tmp, path)
+
+
+def rng_state(rng: np.random.Generator) -> dict:
+    return {"numpy_plan": rng.bit_generator.state, "torch": torch.get_rng_state()}
+
+
+def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, sizes,
+          settings: YnetSettings, n_past: int, checkpoint: Path, best_path: Path,
+          history_path: Path, epochs: int | None = None) -> dict:
+    """Train (resuming from `checkpoint` if present); returns the training summary."""
+    torch.set_num_threads(settings.threads)
+    torch.set_flush_denormal(True)  # otherwise Adam crawls through denormal numbers on CPU
+    seed_everything(settings.seed)
+    n_future = train_arrays.future.shape[1]
+    model = YNet(settings.model_config(n_past, n_future))
+    optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
+    rng = np.random.default_rng(settings.seed)
+    train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize)
+    val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize)
+
+    state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
+    if checkpoint.exists():
+        saved = torch.load(checkpoint, weights_only=True)
+        model.load_state_dict(saved["model"])
+        optimizer.load_state_dict(saved["optimizer"])
+        rng.bit_generator.state = saved["rng"]["numpy_plan"]
+        torch.set_rng_state(saved["rng"]["torch"])
+        state = saved["state"]
+        print(f"train_ynet: resuming after epoch {state['epoch']}")
+
+    for epoch in range(state["epoch"] + 1, (epochs or settings.epochs) + 1):
+        start = time.perf_counter()
+        loss = train_epoch(model, optimizer, train_scenes, settings, rng, epoch)
+        scores = validate(model, val_scenes, settings)
+        state["seconds"] += time.perf_counter() - start
+        state["history"].append({"epoch": epoch, "train_loss": loss, **scores,
+                                 "seconds": state["seconds"]})
+        print(f"epoch {epoch}: loss {loss:.3f}  val ADE {scores['val_ade']:.2f}  "
+              f"FDE {scores['val_fde']:.2f}  ({state['seconds']:.0f} s)")
+        if state["best"] is None or scores["val_ade"] < state["best"]["val_ade"]:
+            state["best"] = {"epoch": epoch, **scores}
+            save_atomic({"model": model.state_dict(), "config": asdict(model.config),
+                         "settings": asdict(settings), "epoch": epoch}, best_path)
+        state["epoch"] = epoch
+        save_atomic({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
+                     "rng": rng_state(rng), "state": state}, checkpoint)
+        pd.DataFrame(state["history"]).to_csv(history_path, index=False)
+    return {"epochs": state["epoch"], "best_epoch": state["best"]["epoch"],
+            "best_val_ade": state["best"]["val_ade"], "best_val_fde": state["best"]["val_fde"],
+            "train_seconds": state["seconds"], "train_windows": len(train_arrays),
+            "val_windows": len(val_arrays)}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--windows", type=Path, required=True, help="window table (parquet)")
+    parser.add_argument("--semantic-maps", type=Path, required=True)
+    parser.add_argument("--sdd", type=Path, required=True, help="fetched SDD root (scene sizes)")
+    parser.add_argument("--n-past", type=int, default=5)
+    parser.add_argument("--checkpoint-dir", type=Path, required=True)
+    parser.add_argument("--model", type=Path, required=True, help="best weights (state_dict)")
+    parser.add_argument("--history", type=Path, required=True, help="per-epoch CSV (dvc plots)")
+    parser.add_argument("--metrics", type=Path, required=True)
+    args = parser.parse_args(argv)
+    params = read_params()
+    settings = load_profile(YnetSettings, "ynet", params)
+
+    table = pd.read_parquet(args.windows)
+    train_arrays = to_arrays(table[table["split"] == "train"], args.n_past)
+    val_arrays = to_arrays(table[table["split"] == "val"], args.n_past)
+    n_future = train_arrays.future.shape[1]
+    if n_future != 30:
+        settings.waypoints = scale_waypoints(settings.waypoints, n_future)
+    semantic_maps = load_semantic_maps(args.semantic_maps)
+    sizes = image_sizes(args.sdd, set(train_arrays.scene_id) | set(val_arrays.scene_id))
+    args.history.parent.mkdir(parents=True, exist_ok=True)
+    summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, args.n_past,
+                    args.checkpoint_dir / "last.pt", args.model, args.history)
+    summary["profile"] = params["profile"]
+    args.metrics.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.metrics.with_name(f".{args.metrics.name}.tmp")
+    tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    os.replace(tmp, args.metrics)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,497 @@
+"""The report stage: every table cell is measured, quoted from the paper or explained; the page
+parses, opens from the file system, and its figures load in a real browser.
+
+Fixtures are metrics files in the contracts' formats (see `pipeline.report`'s docstring), written
+here; the Chromium test needs Debian's `chromium` (`tests/setup_chromium.sh`): without it the test
+skips locally and fails in CI.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pipeline import report
+from pipeline.params import ParamsError, from_dict
+
+REPO = Path(__file__).resolve().parents[1]
+PAPER = REPO / "pipeline" / "paper_values.yaml"
+PAPER_TEX = REPO.parent / "shared" / "paper" / "ynet-paper.tex"
+BANDS = report.ReportParams(close=0.05, far=0.20)
+HORIZONS = [5, 10, 15, 20, 30, 40, 50, 60]
+ETHUCY_SCENES = ["eth", "hotel", "univ", "zara1", "zara2"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Fixtures in the contracts' formats
+
+
+def stat(mean: float, std: float) -> dict:
+    return {"mean": mean, "std": std}
+
+
+def four(ade: float, fde: float) -> dict:
+    return {"ade": stat(ade, 0.4), "fde": stat(fde, 0.9), "ade_joint": stat(ade + 2.5, 0.5),
+            "fde_joint": stat(fde + 4.5, 1.0)}
+
+
+def baseline(model: str, t_f: int, ade: float) -> dict:
+    return {"model": model, "t_f": t_f, "k": 20, "n_windows": 300, "rounds": 3,
+            "ade": ade, "ade_std": 0.7, "fde": 2.1 * ade, "fde_std": 1.3,
+            "ade_joint": ade + 1.25, "fde_joint": 2.1 * ade + 3.5, "train_seconds": 61.0 * t_f}
+
+
+def data_metrics() -> dict[str, object]:
+    """What the data stages write (small but in their formats)."""
+    return {
+        "windows.json": {"release": {"tf30": {"train": 964, "val": 156, "test": 382}},
+                         "raw": {f"tf{h}": {"train": 100 - h, "val": 10, "test": 50 - h // 2,
+                                            "outside_split": 7} for h in HORIZONS}},
+        "data_audit.json": {"t_f": 30, "compat_drop_first_row": False,
+                            "totals": {"ours": 14, "release": 14, "exact_matches": 13},
+                            "videos": {"gates_2": {"ours": 10, "release": 10, "exact_matches": 10},
+                                       "little_0": {"ours": 4, "release": 4, "exact_matches": 3,
+                                                    "mismatches": ["track 7: frames differ"]}}},
+        "horizon_windows.json": {"chain_pieces": 1122,
+                                 **{f"tf{h}": {s: {"raw": 9, "release_chain": 400 - h}
+                                               for s in ("train", "val", "test")} for h in HORIZONS}},
+        "chain_bias.json": {
+            f"tf{h}": {"raw": {"windows": 700 - 10 * h, "cv_ade": 3.5 * h, "cv_fde": 7.25 * h},
+                       "release_chain": {"windows": 190 - h, "cv_ade": 3.0 * h, "cv_fde": 6.5 * h},
+                       "kept_fraction": 0.25} for h in HORIZONS},
+    }
+
+
+def model_metrics() -> dict[str, object]:
+    """What the training / evaluation stages will write."""
+    files: dict[str, object] = {
+        "ynet_eval.json": {
+            "profile": "cpu", "t_f": 30, "n_windows": 382, "rounds": 3,
+            "main": four(49.5, 70.25),
+            "ablation": {"none": four(66.5, 88.0), "cws": four(53.75, 88.0), "ttst_cws": four(49.5, 70.25)},
+            "ka_grid": [{"k_e": k_e, "k_a": k_a, "ade": stat(60.0 - k_e / 2 - k_a, 0.3),
+                         "fde": stat(80.0 - k_e / 2, 0.6)} for k_e in (5, 20) for k_a in (1, 2, 5)],
+            "eval_seconds": 1500.0, "train_seconds": 36000.0},
+        "baselines/pecnet_ka.json": [{"k_a": k_a, "k": 20 * k_a, "ade": 75.5 - k_a, "fde": 120.25}
+                                     for k_a in (1, 2, 5)],
+        "segmentation.json": {"miou": 0.6125, "per_class_iou": {"pavement": 0.75, "road": 0.5,
+                                                                 "structure": 0.625, "terrain": 0.4375,
+                                                                 "tree": 0.8125},
+                              "train_seconds": 4200.0},
+        "ind.json": {"status": "not provided", "reason": "inD not provided: set data.ind.path"},
+        "short_term/sdd.json": {"rounds": 3, "models": {"ynet": {
+            "k20": {"ade": stat(8.25, 0.05), "fde": stat(12.5, 0.1)},
+            "k5": {"ade": stat(11.75, 0.1), "fde": stat(21.0, 0.2)}}}},
+    }
+    for i, scene in enumerate(ETHUCY_SCENES):
+        files[f"short_term/ethucy_{scene}.json"] = {"rounds": 3, "models": {"ynet": {
+            "ade": stat(0.125 + 0.0625 * i, 0.005), "fde": stat(0.25 + 0.0625 * i, 0.01)}}}
+    for h in HORIZONS:
+        files[f"ynet_horizons/tf{h}.json"] = {"t_f": h, "rounds": 3, "main": four(1.5 * h + 3, 3.0 * h)}
+        for j, model in enumerate(("constant_velocity", "sgan", "pecnet", "rpecnet")):
+            files[f"baselines/{model}_tf{h}.json"] = baseline(model, h, (2.0 + j) * h)
+    return files
+
+
+def write_metrics(folder: Path, files: dict[str, object], skip: tuple[str, ...] = ()) -> None:
+    for rel, content in files.items():
+        if rel in skip:
+            continue
+        path = folder / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(content))
+
+
+def write_qualitative(path: Path, n: int = 3) -> None:
+    rng = np.random.default_rng(0)
+    arrays = {}
+    for i in range(n):
+        h, w = 120, 160
+        arrays[f"scene_image_{i}"] = rng.integers(0, 255, (h, w, 3), dtype=np.uint8)
+        arrays[f"past_{i}"] = np.stack([np.linspace(10, 40, 5), np.linspace(20, 30, 5)], 1)
+        arrays[f"future_{i}"] = np.stack([np.linspace(45, 140, 30), np.linspace(30, 90, 30)], 1)
+        arrays[f"goal_heatmap_{i}"] = rng.random((h, w))
+        arrays[f"sampled_goals_{i}"] = rng.random((20, 2)) * [w, h]
+        arrays[f"trajectory_heatmap_{i}"] = rng.random((h, w))
+        arrays[f"predictions_{i}"] = rng.random((20, 30, 2)) * [w, h]
+    arrays["scene_id_0"] = np.array("gates_2 window 3")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, **arrays)
+
+
+def write_png(path: Path, colour: tuple[int, int, int]) -> None:
+    from PIL import Image
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.new("RGB", (64, 48), colour).save(path)
+
+
+@pytest.fixture
+def project(tmp_path: Path) -> Path:
+    """A working folder with every input of the report stage (metrics written by each test)."""
+    (tmp_path / "metrics").mkdir()
+    params = yaml.safe_load((REPO / "params.yaml").read_text())
+    params["report"] = {"close": 0.05, "far": 0.20}
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
+    (tmp_path / "manifests").mkdir()
+    (tmp_path / "manifests" / "sdd.sha256").write_text("ab" * 32 + "  annotations/x.txt\n")
+    (tmp_path / "dvc.lock").write_text(yaml.safe_dump({"schema": "2.0", "stages": {"fetch@sdd": {
+        "outs": [{"path": "data/raw/sdd", "md5": "0e5e7977cdd07682f5a28f53a640c3ba.dir", "nfiles": 86}]}}}))
+    (tmp_path / "reports" / "data").mkdir(parents=True)
+    (tmp_path / "reports" / "data" / "windows_per_scene.json").write_text(json.dumps(
+        {"raw": {"tf30": {"test": {"gates_2": 10}, "train": {"gates_4": 4}}},
+         "release": {"tf30": {"test": {"coupa_0": 47}}}}))
+    return tmp_path
+
+
+def run_report(root: Path) -> Path:
+    """`python -m pipeline.report` on `root`'s inputs; returns the page's path."""
+    out = root / "reports" / "index.html"
+    report.main([
+        "--metrics", str(root / "metrics"), "--paper", str(PAPER), "--params", str(root / "params.yaml"),
+        "--scene-counts", str(root / "reports/data/windows_per_scene.json"),
+        "--segmentation-figures", str(root / "reports/figures/segmentation"),
+        "--qualitative", str(root / "data/ynet_predictions/qualitative.npz"),
+        "--manifests", str(root / "manifests"), "--dvc-lock", str(root / "dvc.lock"),
+        "--out", str(out), "--figures", str(root / "reports/figures/report"),
+        "--plots", str(root / "reports/plots")])
+    return out
+
+
+def full_project(root: Path) -> Path:
+    write_metrics(root / "metrics", data_metrics() | model_metrics())
+    write_qualitative(root / "data/ynet_predictions/qualitative.npz")
+    for video in ("coupa_0", "gates_2", "quad_3"):
+        write_png(root / f"reports/figures/segmentation/labels/{video}.png", (200, 160, 40))
+        write_png(root / f"reports/figures/segmentation/predictions/{video}.png", (60, 160, 40))
+    return run_report(root)
+
+
+# ---------------------------------------------------------------------------------------------
+# HTML inspection
+
+
+class Cells(HTMLParser):
+    """Every <td> (attributes, text, whether it holds an image) and every <img src>."""
+
+    def __init__(self):
+        super().__init__()
+        self.cells: list[dict] = []
+        self.images: list[str] = []
+        self.spans: list[tuple[str, str]] = []  # (class, text) of value spans
+        self._td: dict | None = None
+        self._span: str | None = None
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        if tag == "td":
+            self._td = {"attrs": attrs, "text": "", "img": False}
+        elif tag == "img":
+            self.images.append(attrs.get("src", ""))
+            if self._td is not None:
+                self._td["img"] = True
+        elif tag in ("span", "b") and attrs.get("class") in ("ours-value", "paper-value"):
+            self._span = attrs["class"]
+            self.spans.append((self._span, ""))
+
+    def handle_endtag(self, tag):
+        if tag == "td" and self._td is not None:
+            self.cells.append(self._td)
+            self._td = None
+        elif tag in ("span", "b"):
+            self._span = None
+
+    def handle_data(self, data):
+        if self._td is not None:
+            self._td["text"] += data
+        if self._span is not None:
+            cls, text = self.spans[-1]
+            self.spans[-1] = (cls, text + data)
+
+
+def parse(html: str) -> Cells:
+    parser = Cells()
+    parser.feed(html)
+    parser.close()
+    return parser
+
+
+class Nesting(HTMLParser):
+    """Fails on an end tag that does not close the innermost open element (html.parser itself
+    accepts anything, so this is what makes "the page parses" mean something)."""
+
+    VOID = {"meta", "img", "br", "hr", "input", "link", "source", "wbr"}
+
+    def __init__(self):
+        super().__init__()
+        self.stack: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        if tag not in self.VOID:
+            self.stack.append(tag)
+
+    def handle_startendtag(self, tag, attrs):
+        pass
+
+    def handle_endtag(self, tag):
+        assert self.stack and self.stack[-1] == tag, \
+            f"</{tag}> closes <{self.stack[-1:]}> at {self.getpos()}"
+        self.stack.pop()
+
+
+def assert_well_formed(html: str) -> None:
+    checker = Nesting()
+    checker.feed(html)
+    checker.close()
+    assert checker.stack == [], f"unclosed: {checker.stack}"
+    assert html.lstrip().lower().startswith("<!doctype html>")
+    assert "<script" not in html.lower(), "the page needs no JavaScript"
+    assert not re.search(r"""(src|href)=["']?(https?:)?//""", html), "the page must load nothing remote"
+
+
+def comparison_cells(page: Cells) -> list[dict]:
+    return [c for c in page.cells if "data-kind" in c["attrs"]]
+
+
+def numeric_leaves(node) -> list[float]:
+    if isinstance(node, dict):
+        return [x for v in node.values() for x in numeric_leaves(v)]
+    if isinstance(node, list):
+        return [x for v in node for x in numeric_leaves(v)]
+    if isinstance(node, int | float) and not isinstance(node, bool):
+        return [float(node)]
+    return []
+
+
+def formatted(values, decimals=(1, 2, 3)) -> set[str]:
+    return {f"{v:,.{d}f}" for v in values for d in decimals}
+
+
+# ---------------------------------------------------------------------------------------------
+# Tests
+
+
+def test_paper_values_have_the_four_tables_in_the_papers_numbering():
+    paper = yaml.safe_load(PAPER.read_text())
+    assert [paper[k]["number"] for k in ("sdd_short", "eth_ucy", "sdd_long", "ttst")] == [1, 2, 3, 4]
+    for key in ("sdd_short", "sdd_long", "ttst"):
+        for column in paper[key]["columns"]:
+            assert all(isinstance(column[m], float) for m in ("ade", "fde")), column
+    for model in paper["eth_ucy"]["models"]:
+        assert set(model["ade"]) == set(model["fde"]) == {*ETHUCY_SCENES, "avg"}
+
+
+@pytest.mark.skipif(not PAPER_TEX.exists(), reason=f"{PAPER_TEX} not on this machine")
+def test_every_paper_value_is_printed_in_the_paper():
+    """Transcription check: each quoted number occurs in the paper's source as printed."""
+    tex = PAPER_TEX.read_text()
+    paper = yaml.safe_load(PAPER.read_text())
+    values = numeric_leaves([paper[k] for k in ("sdd_short", "eth_ucy", "sdd_long", "ttst")])
+    values = [v for v in values if v not in (1.0, 2.0, 3.0, 4.0, 5.0, 20.0)]  # numbers, K, K_a
+    missing = [v for v in values if f"{v:.2f}" not in tex]
+    assert not missing
+
+
+@pytest.mark.parametrize("ours, expected_band", [(104.0, "close"), (96.0, "close"), (110.0, "mid"),
+                                                 (81.0, "mid"), (130.0, "far"), (60.0, "far")])
+def test_relative_difference_bands(ours, expected_band):
+    cell = report.compare(100.0, report.Measured(ours, 1.0, 3, "x"), BANDS)
+    assert cell.kind == "measured"
+    assert cell.band == expected_band
+    assert math.isclose(cell.diff, (ours - 100.0) / 100.0)
+
+
+def test_report_params_are_typed():
+    assert from_dict(report.ReportParams, {"close": 0.05, "far": 0.2}, "report") == BANDS
+    with pytest.raises(ParamsError, match="unknown key"):
+        from_dict(report.ReportParams, {"close": 0.05, "far": 0.2, "clsoe": 1}, "report")
+    with pytest.raises(ParamsError, match="close < far"):
+        from_dict(report.ReportParams, {"close": 0.3, "far": 0.2}, "report")
+
+
+def test_every_cell_is_measured_quoted_or_explained(project):
+    html = full_project(project).read_text()
+    assert_well_formed(html)
+    page = parse(html)
+    cells = comparison_cells(page)
+    paper = yaml.safe_load(PAPER.read_text())
+    n_paper = (sum(2 * len(paper[k]["columns"]) for k in ("sdd_short", "sdd_long", "ttst"))
+               + 2 * len(paper["eth_ucy"]["models"]) * (len(ETHUCY_SCENES) + 1))
+    assert len(cells) == n_paper
+    for cell in cells:
+        text = " ".join(cell["text"].split())
+        kind = cell["attrs"]["data-kind"]
+        assert kind in ("measured", "paper-only", "absent"), cell
+        assert text.startswith("paper "), text
+        if kind == "measured":
+            assert "ours" in text and re.search(r"[+-]\d+\.\d %", text), text
+        elif kind == "absent":
+            assert re.search(r"[a-z]{4,}", text.split(" ", 2)[2]), text  # words, not a number
+        else:
+            assert "paper only" in text
+        assert not re.search(r"\b(nan|None|inf)\b", text), text
+    kinds = {c["attrs"]["data-kind"] for c in cells}
+    assert kinds == {"measured", "paper-only", "absent"}  # inD status record: absent
+    assert all(c["text"].strip() or c["img"] for c in page.cells), "a blank table cell"
+
+
+def test_no_number_is_invented(project):
+    """Every 'ours' number is a value of a metrics file (or Table 2's average of them); every
+    'paper' number is in paper_values.yaml."""
+    page = parse(full_project(project).read_text())
+    metrics = data_metrics() | model_metrics()
+    allowed = formatted(numeric_leaves(metrics))
+    for metric in ("ade", "fde"):
+        scenes = [metrics[f"short_term/ethucy_{s}.json"]["models"]["ynet"][metric]["mean"]
+                  for s in ETHUCY_SCENES]
+        allowed |= formatted([float(np.mean(scenes))])
+    quoted = formatted(numeric_leaves(yaml.safe_load(PAPER.read_text())), decimals=(2,))
+    spans = page.spans
+    assert any(cls == "ours-value" for cls, _ in spans)
+    for cls, text in spans:
+        assert text.strip() in (allowed if cls == "ours-value" else quoted), (cls, text)
+
+
+def test_a_missing_metrics_file_is_explained(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics(), skip=("ynet_eval.json",))
+    html = run_report(project).read_text()
+    reason = f"stage not yet run: {project / 'metrics'}/ynet_eval.json missing"
+    assert reason in html
+    tables = report.build_tables(yaml.safe_load(PAPER.read_text()),
+                                 report.load_metrics(project / "metrics", "metrics"), BANDS)
+    ttst = next(t for t in tables if t.key == "ttst")
+    sdd_cells = [row.cells[i] for row in ttst.rows for i, c in enumerate(ttst.columns) if c.group == "SDD"]
+    assert {c.ours.reason for c in sdd_cells} == {"stage not yet run: metrics/ynet_eval.json missing"}
+
+
+def test_a_status_record_shows_its_reason(project):
+    html = full_project(project).read_text()
+    assert "inD not provided: set data.ind.path" in html
+    store = report.load_metrics(project / "metrics", "metrics")
+    cell = report.find_long_term(store, {"dataset": "ind", "model": "pecnet", "k_a": 1}, "ade")
+    assert isinstance(cell, report.Absent) and cell.kind == "status"
+
+
+def test_a_file_for_another_horizon_is_not_compared(project):
+    files = data_metrics() | model_metrics()
+    files["baselines/sgan_tf30.json"] = baseline("sgan", 20, 50.0)
+    write_metrics(project / "metrics", files)
+    store = report.load_metrics(project / "metrics", "metrics")
+    cell = report.find_long_term(store, {"dataset": "sdd", "model": "sgan", "k_a": 1}, "ade")
+    assert isinstance(cell, report.Absent) and "t_f = 20 s, not 30 s" in cell.reason
+
+
+def test_only_data_stages_give_a_valid_page(project):
+    """`dvc repro report` after the data stages: a page that says what is missing."""
+    write_metrics(project / "metrics", data_metrics())
+    out = run_report(project)
+    html = out.read_text()
+    assert_well_formed(html)
+    page = parse(html)
+    assert {c["attrs"]["data-kind"] for c in comparison_cells(page)} == {"absent", "paper-only"}
+    assert "No figure: no model has a measured horizon yet" in html
+    assert "qualitative.npz missing" in html
+    assert "segmentation.json missing" in html
+    assert "Bias of horizons" in html
+    assert json.loads((project / "reports/plots/horizon_ade.json").read_text()) == []
+    assert not (project / "reports/figures/report/horizon_ade.png").exists()
+    assert all(c["text"].strip() or c["img"] for c in page.cells)
+
+
+def test_plot_series_hold_only_measured_values(project):
+    full_project(project)
+    horizon = json.loads((project / "reports/plots/horizon_ade.json").read_text())
+    assert [row["t_f"] for row in horizon] == HORIZONS
+    assert horizon[0]["ynet"] == 1.5 * 5 + 3 and horizon[0]["sgan"] == 3.0 * 5
+    ka = json.loads((project / "reports/plots/ka_ade.json").read_text())
+    assert [row["k_a"] for row in ka] == [1, 2, 5]
+    assert ka[1] == {"k_a": 2, "ynet_ke5": 55.5, "ynet_ke20": 48.0, "pecnet_k20ka": 73.5}
+    for name in ("horizon_ade.png", "ka_ade.png", "qualitative.png"):
+        assert (project / "reports/figures/report" / name).stat().st_size > 1000
+
+
+def test_a_broken_qualitative_file_is_reported(project, tmp_path):
+    path = tmp_path / "q.npz"
+    write_qualitative(path, n=1)
+    arrays = dict(np.load(path))
+    del arrays["goal_heatmap_0"]
+    np.savez(path, **arrays)
+    loaded = report.load_qualitative(path)
+    assert isinstance(loaded, report.Absent) and "missing goal_heatmap" in loaded.reason
+
+
+# ---------------------------------------------------------------------------------------------
+# A real browser
+
+CHECK_SCRIPT = """<script>
+window.addEventListener('load', function () {
+  var imgs = Array.prototype.slice.call(document.images);
+  var broken = imgs.filter(function (i) { return !(i.complete && i.naturalWidth > 0); })
+                   .map(function (i) { return i.getAttribute('src'); });
+  document.body.setAttribute('data-images', String(imgs.length));
+  document.body.setAttribute('data-broken', JSON.stringify(broken));
+});
+</script>"""
+
+
+def in_ci() -> bool:
+    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
+
+
+def chromium() -> str:
+    exe = (os.environ.get("CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
+           or shutil.which("google-chrome"))
+    if exe:
+        return exe
+    if in_ci():
+        pytest.fail("chromium not found in CI: tests/setup_chromium.sh must install it before the tests")
+    pytest.skip("chromium not installed (install it with tests/setup_chromium.sh); CI requires it")
+
+
+def run_chromium(page: Path, *args: str, profile: Path) -> str:
+    cmd = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+           "--hide-scrollbars", "--no-first-run", f"--user-data-dir={profile}",
+           "--virtual-time-budget=10000", *args, page.as_uri()]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=180)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout
+
+
+def image_report(page: Path, profile: Path) -> tuple[int, list[str]]:
+    """(images on the page, those that did not load), measured by the browser after load."""
+    check = page.with_name("check.html")
+    check.write_text(page.read_text().replace("</body>", CHECK_SCRIPT + "</body>"))
+    dom = run_chromium(check, "--dump-dom", profile=profile)
+    body = re.search(r"<body([^>]*)>", dom)
+    assert body, dom[:500]
+    n = re.search(r'data-images="(\d+)"', body.group(1))
+    broken = re.search(r"data-broken=\"([^\"]*)\"", body.group(1))
+    assert n and broken, f"the load check did not run: {body.group(0)[:300]}"
+    return int(n.group(1)), json.loads(broken.group(1).replace("&quot;", '"'))
+
+
+def test_page_renders_in_headless_chromium(project, tmp_path):
+    from PIL import Image
+    page = full_project(project)
+    profile = tmp_path / "chromium-profile"
+    n, broken = image_report(page, profile)
+    assert n >= 3 + 6 and broken == []  # three report figures, six segmentation figures
+
+    shot = tmp_path / "shot.png"
+    run_chromium(page, f"--screenshot={shot}", "--window-size=1280,2400", profile=profile)
+    pixels = np.asarray(Image.open(shot).convert("L"), dtype=float)
+    assert pixels.shape == (2400, 1280)
+    assert pixels.std() > 10 and (pixels < 200).mean() > 0.02, "the screenshot is blank"
+
+    (project / "reports/figures/report/horizon_ade.png").unlink()  # the check must catch this
+    n, broken = image_report(page, profile)
+    assert broken == ["figures/report/horizon_ade.png"]

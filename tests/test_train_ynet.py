@@ -1,0 +1,70 @@
+"""Y-net training and evaluation stages on a tiny synthetic scene."""
+
+import numpy as np
+import pytest
+import torch
+
+from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, evaluate, load_model,
+                                    sampling_options)
+from pipeline.train_ynet import YnetSettings, scale_waypoints, train
+from pipeline.window_table import WindowArrays
+from pipeline.ynet_data import group_by_scene
+
+N_PAST, N_FUTURE = 3, 4
+
+
+def arrays(n: int, split: str, seed: int) -> WindowArrays:
+    """Agents walking right at 8 px/step across a 256 x 256 px (original) scene."""
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(40, 120, size=(n, 1, 2))
+    steps = np.arange(N_PAST + N_FUTURE)[None, :, None] * np.array([8.0, 0.0])
+    xy = start + steps
+    return WindowArrays(past=xy[:, :N_PAST], future=xy[:, N_PAST:], window_id=np.arange(n),
+                        scene_id=np.array(["gates_0"] * n), track_id=np.arange(n),
+                        first_frame=np.zeros(n), split=np.array([split] * n))
+
+
+SETTINGS = dict(resize=0.25, epochs=2, batch_size=2, learning_rate=1e-3, augmentations=2,
+                kernel_size=7, sigma=1.5, waypoints=[1, 3], encoder_channels=[4, 4, 8, 8, 8],
+                decoder_channels=[8, 8, 8, 4, 4], distance_norm="map", seed=3, threads=1)
+MAPS = {"gates_0": np.full((6, 64, 64), 1 / 6, np.float32)}
+SIZES = {"gates_0": (256, 256)}
+
+
+def run(tmp_path, epochs=None):
+    settings = YnetSettings(**SETTINGS)
+    summary = train(arrays(6, "train", 0), arrays(2, "val", 1), MAPS, SIZES, settings, N_PAST,
+                    tmp_path / "last.pt", tmp_path / "best.pt", tmp_path / "history.csv", epochs)
+    return summary, torch.load(tmp_path / "last.pt", weights_only=True)["model"]
+
+
+def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
+    torch.set_num_threads(1)
+    summary, straight = run(tmp_path / "a")
+    run(tmp_path / "b", epochs=1)  # "interrupted" after epoch 1
+    resumed_summary, resumed = run(tmp_path / "b")
+    assert summary["epochs"] == resumed_summary["epochs"] == 2
+    for name in straight:
+        torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)
+    assert (tmp_path / "a" / "history.csv").read_text().count("\n") == 3
+
+
+def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
+    torch.set_num_threads(1)
+    run(tmp_path)
+    model, settings = load_model(tmp_path / "best.pt")
+    test = arrays(3, "test", 2)
+    scenes = group_by_scene(test, MAPS, SIZES, settings.resize)
+    options = sampling_options(3, 2, TtstParams(), CwsParams(), True, True)
+    params = EvalParams(k_e=3, k_a=2, rounds=2, batch_size=2)
+    first = evaluate(model, scenes, settings, options, params, test.future, 2, "a")
+    second = evaluate(model, scenes, settings, options, params, test.future, 2, "b")
+    assert first == second
+    assert first["ade"]["mean"] > 0 and first["k_e"] == 3 and first["k_a"] == 2
+    assert first["fde_joint"]["mean"] >= first["fde"]["mean"]
+
+
+@pytest.mark.parametrize("n_future, expected", [(30, [14, 29]), (60, [29, 59]), (5, [2, 4]),
+                                                (10, [4, 9])])
+def test_waypoints_scale_with_the_horizon(n_future, expected):
+    assert scale_waypoints([14, 29], n_future) == expected
