@@ -49,6 +49,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import yaml
 
@@ -749,37 +750,59 @@ def segmentation_scores(store: MetricsStore) -> dict[str, Any]:
         return {"absent": record, "miou": record, "classes": [], "extra": [], "no_classes": None}
     where = store.where("segmentation.json")
     miou = lookup(store, "segmentation.json", ("miou",))
-    per_class = record.get("per_class_iou")
+    per_class = record.get("iou", record.get("per_class_iou"))
     classes = ([(name, as_measured(v, per_class, name, record.get("rounds"),
                                    f"{where}: per_class_iou.{name}"))
                 for name, v in per_class.items()] if isinstance(per_class, dict) else [])
     extra = [(k, v) for k, v in record.items()
              if is_number(v) and k not in ("miou", "rounds") and "seconds" not in k]  # times: provenance
     return {"absent": None, "miou": miou, "classes": classes, "extra": extra,
-            "no_classes": None if classes else f"{where} has no per_class_iou"}
+            "no_classes": None if classes else f"{where} has no per-class IoU (key `iou`)"}
 
 
-def segmentation_gallery(folder: Path, videos: Iterable[str], html_dir: Path) -> dict[str, Any]:
-    """Images of `folder` (one subfolder per kind, e.g. labels, predictions) per test video."""
+def segmentation_gallery(folder: Path, videos: Iterable[str], slot) -> dict[str, Any]:
+    """Figures of `folder` (one subfolder per kind, e.g. predictions) per test video.
+
+    Each is copied beside the page as a compact JPEG (`slot(name)` says where), so the committed
+    report stays small and still opens without the stage outputs.
+    """
     if not folder.is_dir():
         return {"absent": f"stage not yet run: {folder.as_posix()} missing (the segmentation stages "
                           "draw these figures)", "kinds": [], "rows": [], "other": []}
     kinds = sorted({p.parent for p in folder.rglob("*.png")}, key=lambda p: p.as_posix())
+    kind_names = [k.relative_to(folder).as_posix() if k != folder else "top" for k in kinds]
     rows, used = [], set()
     for video in sorted(videos, key=video_sort_key):
         pattern = re.compile(rf"^{re.escape(video)}(?!\d)")
         images = []
-        for kind in kinds:
+        for kind, kind_name in zip(kinds, kind_names):
             match = sorted(p for p in kind.glob("*.png") if pattern.match(p.stem))
-            images.append(rel_src(match[0], html_dir) if match else None)
+            images.append(compact_copy(match[0], slot(f"segmentation_{kind_name}_{video}.jpg"))
+                          if match else None)
             used.update(match[:1])
         if any(images):
             rows.append({"video": video, "images": images})
-    other = [rel_src(p, html_dir) for p in sorted(folder.rglob("*.png"))
+    other = [compact_copy(p, slot(f"segmentation_{p.stem}.jpg")) for p in sorted(folder.rglob("*.png"))
              if p not in used and p.parent == folder]
-    return {"absent": None,
-            "kinds": [k.relative_to(folder).as_posix() if k != folder else "(top)" for k in kinds],
-            "rows": rows, "other": other}
+    return {"absent": None, "kinds": kind_names, "rows": rows, "other": other}
+
+
+GALLERY_MAX_WIDTH = 1200
+GALLERY_JPEG_QUALITY = 80
+
+
+def compact_copy(image_path: Path, slot: "FigureSlot") -> str:
+    """`image_path` as a JPEG at most GALLERY_MAX_WIDTH wide at `slot.path`; its <img> src."""
+    image = cv2.imread(str(image_path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise ValueError(f"{image_path}: not a readable image")
+    if image.shape[1] > GALLERY_MAX_WIDTH:
+        scale = GALLERY_MAX_WIDTH / image.shape[1]
+        image = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    slot.path.parent.mkdir(parents=True, exist_ok=True)
+    if not cv2.imwrite(str(slot.path), image, [cv2.IMWRITE_JPEG_QUALITY, GALLERY_JPEG_QUALITY]):
+        raise OSError(f"could not write {slot.path}")
+    return slot.src
 
 
 def rel_src(path: Path, html_dir: Path) -> str:
@@ -1037,7 +1060,7 @@ def build_context(inputs: Inputs, params: Mapping[str, Any], report_params: Repo
         "data": data_section(store, inputs.scene_counts),
         "n_test_videos": len(TEST_VIDEOS),
         "segmentation": {**segmentation_scores(store),
-                         "gallery": segmentation_gallery(inputs.segmentation_figures, TEST_VIDEOS, html_dir)},
+                         "gallery": segmentation_gallery(inputs.segmentation_figures, TEST_VIDEOS, slot)},
         "provenance": provenance_section(inputs, params, store),
     }
     return context, plots
@@ -1086,7 +1109,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--paper", type=Path, default=Path("pipeline/paper_values.yaml"))
     parser.add_argument("--params", type=Path, default=Path("params.yaml"))
     parser.add_argument("--scene-counts", type=Path, default=Path("reports/data/windows_per_scene.json"))
-    parser.add_argument("--segmentation-figures", type=Path, default=Path("reports/figures/segmentation"))
+    parser.add_argument("--segmentation-figures", type=Path, default=Path("reports/figures/segmentation/predictions"))
     parser.add_argument("--qualitative", type=Path, default=Path("data/ynet_predictions/qualitative.npz"))
     parser.add_argument("--manifests", type=Path, default=Path("manifests"))
     parser.add_argument("--dvc-lock", type=Path, default=Path("dvc.lock"))

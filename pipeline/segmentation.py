@@ -203,7 +203,9 @@ def train(
     optimiser = torch.optim.Adam(model.parameters(), lr=params.lr)
     log: list[dict] = []
     state = load_checkpoint(checkpoint)
-    if state is not None and state.get("fingerprint") == run_id and state.get("format") == CHECKPOINT_FORMAT:
+    same_run = state is not None and (state.get("format"), state.get("fingerprint")) == (
+        CHECKPOINT_FORMAT, run_id)
+    if same_run:
         model.load_state_dict(state["model"])
         optimiser.load_state_dict(state["optimiser"])
         log = list(state["log"])
@@ -230,8 +232,8 @@ def train(
             bar.update()
             bar.set_postfix(epoch=epoch + 1, loss=f"{losses[-1]:.3f}")
         seconds = time.perf_counter() - start
-        log.append({"epoch": epoch + 1, "loss": float(np.mean(losses)), "lr": learning_rate(params, epoch),
-                    "crops": n_crops, "seconds": round(seconds, 3)})
+        log.append({"epoch": epoch + 1, "loss": float(np.mean(losses)),
+                    "lr": learning_rate(params, epoch), "crops": n_crops, "seconds": round(seconds, 3)})
         save_torch(checkpoint, {"format": CHECKPOINT_FORMAT, "fingerprint": run_id,
                                 "model": model.state_dict(), "optimiser": optimiser.state_dict(),
                                 "log": log})

@@ -5,6 +5,9 @@ from dataclasses import dataclass, field
 import pytest
 
 from pipeline.fetch import FetchParams
+from pipeline.labels import LabelsParams
+from pipeline.segmentation import SegmentationParams
+from pipeline.semantic_maps import SemanticParams
 from pipeline.params import ParamsError, from_dict, load_section, read_params
 from pipeline.splits import SplitParams
 from pipeline.tracks import CompatParams
@@ -15,7 +18,8 @@ from pipeline.train_ynet import YnetSettings
 from pipeline.windows import WindowParams
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
-            "windows": WindowParams, "report": ReportParams}
+            "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,
+            "semantic": SemanticParams}
 
 
 @pytest.mark.parametrize("key, cls", SECTIONS.items())
@@ -23,7 +27,7 @@ def test_params_yaml_sections_validate(key, cls):
     load_section(cls, key, read_params())
 
 
-PROFILED = {"ynet": YnetSettings, "eval": EvalParams}
+PROFILED = {"ynet": YnetSettings, "eval": EvalParams, "segmentation": SegmentationParams}
 
 
 @pytest.mark.parametrize("profile", ["cpu", "paper"])

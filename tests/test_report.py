@@ -84,7 +84,7 @@ def model_metrics() -> dict[str, object]:
             "eval_seconds": 1500.0, "train_seconds": 36000.0},
         "baselines/pecnet_ka.json": [{"k_a": k_a, "k": 20 * k_a, "ade": 75.5 - k_a, "fde": 120.25}
                                      for k_a in (1, 2, 5)],
-        "segmentation.json": {"miou": 0.6125, "per_class_iou": {"pavement": 0.75, "road": 0.5,
+        "segmentation.json": {"miou": 0.6125, "iou": {"pavement": 0.75, "road": 0.5,
                                                                  "structure": 0.625, "terrain": 0.4375,
                                                                  "tree": 0.8125},
                               "train_seconds": 4200.0},
@@ -495,3 +495,14 @@ def test_page_renders_in_headless_chromium(project, tmp_path):
     (project / "reports/figures/report/horizon_ade.png").unlink()  # the check must catch this
     n, broken = image_report(page, profile)
     assert broken == ["figures/report/horizon_ade.png"]
+
+
+def test_segmentation_figures_are_copied_beside_the_page_as_jpeg(project):
+    full_project(project)
+    html = (project / "reports/index.html").read_text()
+    copies = sorted((project / "reports/figures/report").glob("segmentation_predictions_*.jpg"))
+    assert copies, "no compact copy of the prediction figures"
+    for copy in copies:
+        assert copy.read_bytes()[:2] == b"\xff\xd8"  # JPEG magic
+        assert f'src="figures/report/{copy.name}"' in html
+    assert "figures/segmentation/" not in html  # the page never points at the stage's own output

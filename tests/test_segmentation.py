@@ -63,14 +63,16 @@ def test_dice_loss_known_value():
     target = torch.tensor([[[0, 1]]])
     # class 0: 2 * 0.7 / ((0.7 + 0.2) + 1) ; class 1 the same.
     expected = 1 - (2 * 0.7) / 1.9
-    torch.testing.assert_close(dice_loss(logits, target, eps=0.0), torch.tensor(expected, dtype=torch.float64))
+    torch.testing.assert_close(dice_loss(logits, target, eps=0.0),
+                               torch.tensor(expected, dtype=torch.float64))
 
 
 def test_dice_loss_two_classes_unequal():
     logits = logits_of([[[0.8, 0.3]], [[0.2, 0.7]]])
     target = torch.tensor([[[0, 1]]])
     expected = 1 - (1.6 / 2.1 + 1.4 / 1.9) / 2
-    torch.testing.assert_close(dice_loss(logits, target, eps=0.0), torch.tensor(expected, dtype=torch.float64))
+    torch.testing.assert_close(dice_loss(logits, target, eps=0.0),
+                               torch.tensor(expected, dtype=torch.float64))
 
 
 def test_dice_loss_perfect_and_wrong():
@@ -200,8 +202,6 @@ def test_segmentation_params_profiles_and_checks():
 def test_params_yaml_sections_validate():
     path = Path(__file__).parents[1] / "params.yaml"
     params = read_params(path)
-    if "segmentation" not in params or "semantic" not in params:
-        pytest.skip("params.yaml has no segmentation/semantic sections yet")
     for profile in params["segmentation"]:
         load_profile(SegmentationParams, "segmentation", {**params, "profile": profile})
     load_section(SemanticParams, "semantic", params)
