@@ -17,12 +17,12 @@ Metrics read (paths relative to `--metrics`; a record {"status": ..., "reason": 
 results is shown as its reason):
 - `ynet_eval.json`: {"profile", "t_f", "rounds", "main": {"ade": {"mean", "std"}, "fde", "ade_joint",
   "fde_joint"}, "ablation": {"none"|"cws"|"ttst_cws": {...}}, "ka_grid": [{"k_e", "k_a", "ade", "fde"}]}
-- `ynet_horizons/tf<H>.json`: {"main": {...}}; `baselines/<model>_tf<H>.json`: {"ade", "ade_std",
+- `ynet_horizons/tf<H>.json`: {"main": {...}} or {"not_run_reason": "..."} (t_f = 30: ynet_eval.json); `baselines/<model>_tf<H>.json`: {"ade", "ade_std",
   "fde", ..., "rounds", "k", "t_f" or "horizon"}; `baselines/pecnet_ka.json`: [{"k_a", "k", "ade", "fde"}]
 - `short_term/sdd.json`: {"rounds", "models": {<model>: {"k20"|"k5": {"ade": {"mean", "std"}, "fde"}}}}
 - `short_term/ethucy_<scene>.json`: {"rounds", "models": {<model>: {"ade": {...}, "fde": {...}}}}
-- `ind.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
-- `segmentation.json`: {"miou", "per_class_iou": {class: iou}}; the data files `windows.json`,
+- `ind_benchmark.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
+- `segmentation.json`: {"miou", "iou": {class: iou}}; the data files `windows.json`,
   `data_audit.json`, `horizon_windows.json`, `chain_bias.json`.
 A value is a number, {"mean", "std"[, "rounds"]}, or a number with a sibling "<key>_std".
 
@@ -182,6 +182,8 @@ def lookup(store: MetricsStore, rel: str, path: tuple[str, ...], t_f: int | None
     mismatch = horizon_mismatch(store, rel, record, t_f)
     if mismatch:
         return mismatch
+    if isinstance(record, dict) and isinstance(record.get("not_run_reason"), str):
+        return Absent(record["not_run_reason"], "status")  # a stage that said why it did not run
     node, parent, rounds = record, None, None
     for key in path:
         if not isinstance(node, dict) or key not in node:
@@ -356,11 +358,11 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams) -> T
 
 
 def long_term_file(dataset: str) -> str:
-    return "ynet_eval.json" if dataset == "sdd" else f"{dataset}.json"
+    return "ynet_eval.json" if dataset == "sdd" else f"{dataset}_benchmark.json"
 
 
 def find_long_term(store: MetricsStore, c: Mapping, metric: str) -> Measured | Absent:
-    """Table 3's cell: baselines from their t_f = 30 file (SDD) or ind.json, Y-net by K_a."""
+    """Table 3's cell: baselines from their t_f = 30 file (SDD) or ind_benchmark.json, Y-net by K_a."""
     model, k_a, rel = c["model"], c["k_a"], long_term_file(c["dataset"])
     if model != "ynet":
         if c["dataset"] == "sdd":
@@ -392,7 +394,7 @@ def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams) -> 
     return Table("sdd_long", spec["number"], spec["title"],
                  "t_f = 30 s, t_p = 5 s, K_e = 20 (baselines K = 20). Ours: SDD Y-net from "
                  "metrics/ynet_eval.json (main; ka_grid for K_a > 1), SDD baselines from "
-                 "metrics/baselines/<model>_tf30.json, inD from metrics/ind.json.",
+                 "metrics/baselines/<model>_tf30.json, inD from metrics/ind_benchmark.json.",
                  spec["unit"], 2, columns, tuple(rows))
 
 
@@ -412,7 +414,7 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams) -> Tabl
     columns = tuple(Column(DATASETS[c["dataset"]], f"TTST {tick[c['ttst']]}  CWS {tick[c['cws']]}")
                     for c in cols)
     return Table("ttst", spec["number"], spec["title"],
-                 "t_f = 30 s, K_e = 20, K_a = 1. Ours: metrics/ynet_eval.json and metrics/ind.json, "
+                 "t_f = 30 s, K_e = 20, K_a = 1. Ours: metrics/ynet_eval.json and metrics/ind_benchmark.json, "
                  "key ablation.<none|cws|ttst_cws>.",
                  spec["unit"], 2, columns, tuple(rows))
 
@@ -469,8 +471,9 @@ def horizon_series(store: MetricsStore, horizons: Iterable[int]) -> list[Series]
     for key, label in HORIZON_MODELS:
         found = []
         for h in horizons:
-            if key == "ynet":
-                found.append((h, lookup(store, f"ynet_horizons/tf{h}.json", ("main", "ade"), t_f=h)))
+            if key == "ynet":  # the main Y-net is the t_f = 30 point
+                rel = "ynet_eval.json" if h == LONG_TERM_TF else f"ynet_horizons/tf{h}.json"
+                found.append((h, lookup(store, rel, ("main", "ade"), t_f=h)))
             else:
                 found.append((h, lookup(store, f"baselines/{key}_tf{h}.json", ("ade",), t_f=h)))
         out.append(split_points(key, label, found))

@@ -11,6 +11,7 @@ from the last checkpoint.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import random
@@ -187,6 +188,40 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
     return float(np.mean(losses))
 
 
+RESUMABLE_SETTINGS = ("epochs", "threads")  # may change between an interrupted run and its resumption
+
+
+def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str, np.ndarray],
+                    *arrays: WindowArrays) -> str:
+    """SHA-256 of what a training run depends on: settings, windows and scene maps."""
+    digest = hashlib.sha256()
+    kept = {k: v for k, v in asdict(settings).items() if k not in RESUMABLE_SETTINGS}
+    digest.update(json.dumps({"settings": kept, "n_past": n_past}, sort_keys=True).encode())
+    for a in arrays:
+        for values in (a.window_id, a.first_frame, a.past, a.future):
+            digest.update(np.ascontiguousarray(values).tobytes())
+        digest.update("\x00".join(map(str, a.scene_id)).encode())
+    for scene_id in sorted(semantic_maps):
+        digest.update(scene_id.encode())
+        digest.update(np.ascontiguousarray(semantic_maps[scene_id]).tobytes())
+    return digest.hexdigest()
+
+
+def resumable_checkpoint(path: Path, run_id: str, epochs: int) -> dict | None:
+    """The checkpoint at `path` if this run can continue from it, else None (saying why)."""
+    if not path.exists():
+        return None
+    saved = torch.load(path, weights_only=True)
+    if saved.get("run_id") != run_id:
+        print(f"train_ynet: {path} was trained with other settings, windows or maps; starting afresh")
+        return None
+    if saved["state"]["epoch"] > epochs:
+        print(f"train_ynet: {path} has {saved['state']['epoch']} epochs, more than the {epochs} asked "
+              "for; starting afresh")
+        return None
+    return saved
+
+
 def save_atomic(payload: dict, path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp")
@@ -213,8 +248,9 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize)
 
     state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
-    if checkpoint.exists():
-        saved = torch.load(checkpoint, weights_only=True)
+    run_id = run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)
+    saved = resumable_checkpoint(checkpoint, run_id, epochs or settings.epochs)
+    if saved is not None:
         model.load_state_dict(saved["model"])
         optimizer.load_state_dict(saved["optimizer"])
         rng.bit_generator.state = saved["rng"]["numpy_plan"]
@@ -237,7 +273,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
                          "settings": asdict(settings), "epoch": epoch}, best_path)
         state["epoch"] = epoch
         save_atomic({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
-                     "rng": rng_state(rng), "state": state}, checkpoint)
+                     "rng": rng_state(rng), "state": state, "run_id": run_id}, checkpoint)
         pd.DataFrame(state["history"]).to_csv(history_path, index=False)
     return {"epochs": state["epoch"], "best_epoch": state["best"]["epoch"],
             "best_val_ade": state["best"]["val_ade"], "best_val_fde": state["best"]["val_fde"],

@@ -16,6 +16,7 @@ from pipeline.params import load_profile
 from pipeline.report import ReportParams
 from pipeline.train_ynet import YnetSettings
 from pipeline.windows import WindowParams
+from pipeline.ynet_horizon import HorizonParams
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,
@@ -27,7 +28,8 @@ def test_params_yaml_sections_validate(key, cls):
     load_section(cls, key, read_params())
 
 
-PROFILED = {"ynet": YnetSettings, "eval": EvalParams, "segmentation": SegmentationParams}
+PROFILED = {"ynet": YnetSettings, "eval": EvalParams, "segmentation": SegmentationParams,
+            "ynet_horizons": HorizonParams}
 
 
 @pytest.mark.parametrize("profile", ["cpu", "paper"])

@@ -88,7 +88,7 @@ def model_metrics() -> dict[str, object]:
                                                                  "structure": 0.625, "terrain": 0.4375,
                                                                  "tree": 0.8125},
                               "train_seconds": 4200.0},
-        "ind.json": {"status": "not provided", "reason": "inD not provided: set data.ind.path"},
+        "ind_benchmark.json": {"status": "not provided", "reason": "inD not provided: set data.ind.path"},
         "short_term/sdd.json": {"rounds": 3, "models": {"ynet": {
             "k20": {"ade": stat(8.25, 0.05), "fde": stat(12.5, 0.1)},
             "k5": {"ade": stat(11.75, 0.1), "fde": stat(21.0, 0.2)}}}},
@@ -97,7 +97,8 @@ def model_metrics() -> dict[str, object]:
         files[f"short_term/ethucy_{scene}.json"] = {"rounds": 3, "models": {"ynet": {
             "ade": stat(0.125 + 0.0625 * i, 0.005), "fde": stat(0.25 + 0.0625 * i, 0.01)}}}
     for h in HORIZONS:
-        files[f"ynet_horizons/tf{h}.json"] = {"t_f": h, "rounds": 3, "main": four(1.5 * h + 3, 3.0 * h)}
+        if h != 30:  # the t_f = 30 point is the main Y-net's (ynet_eval.json)
+            files[f"ynet_horizons/tf{h}.json"] = {"t_f": h, "rounds": 3, "main": four(1.5 * h + 3, 3.0 * h)}
         for j, model in enumerate(("constant_velocity", "sgan", "pecnet", "rpecnet")):
             files[f"baselines/{model}_tf{h}.json"] = baseline(model, h, (2.0 + j) * h)
     return files
@@ -506,3 +507,16 @@ def test_segmentation_figures_are_copied_beside_the_page_as_jpeg(project):
         assert copy.read_bytes()[:2] == b"\xff\xd8"  # JPEG magic
         assert f'src="figures/report/{copy.name}"' in html
     assert "figures/segmentation/" not in html  # the page never points at the stage's own output
+
+
+def test_horizon_figure_takes_30_s_from_the_main_ynet_and_explains_untrained_horizons(project):
+    files = data_metrics() | model_metrics()
+    files["ynet_horizons/tf40.json"] = {"t_f": 40, "trained": False,
+                                        "not_run_reason": "not trained at 40 s in the cpu profile"}
+    write_metrics(project / "metrics", files)
+    run_report(project)
+    horizon = {row["t_f"]: row for row in
+               json.loads((project / "reports/plots/horizon_ade.json").read_text())}
+    assert horizon[30]["ynet"] == 49.5  # ynet_eval.json main ADE
+    assert "ynet" not in horizon[40] or horizon[40]["ynet"] is None
+    assert "not trained at 40 s in the cpu profile" in (project / "reports/index.html").read_text()

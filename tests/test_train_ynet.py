@@ -49,6 +49,24 @@ def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
     assert (tmp_path / "a" / "history.csv").read_text().count("\n") == 3
 
 
+def test_a_checkpoint_of_other_settings_is_not_resumed(tmp_path, capsys):
+    torch.set_num_threads(1)
+    run(tmp_path / "b", epochs=1)  # an interrupted run with the old settings
+    other = YnetSettings(**{**SETTINGS, "learning_rate": 5e-4})
+
+    def train_other(folder):
+        train(arrays(6, "train", 0), arrays(2, "val", 1), MAPS, SIZES, other, N_PAST,
+              folder / "last.pt", folder / "best.pt", folder / "history.csv")
+        return torch.load(folder / "last.pt", weights_only=True)["model"]
+
+    capsys.readouterr()
+    restarted = train_other(tmp_path / "b")
+    assert "starting afresh" in capsys.readouterr().out
+    straight = train_other(tmp_path / "a")
+    for name in straight:
+        torch.testing.assert_close(straight[name], restarted[name], rtol=0, atol=0)
+
+
 def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
     torch.set_num_threads(1)
     run(tmp_path)

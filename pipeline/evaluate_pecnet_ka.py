@@ -1,0 +1,61 @@
+"""Stage `evaluate_pecnet_ka`: PECNet's side of the paper's K_a figure.
+
+The paper gives PECNet 20 x K_a samples per window for each K_a of Y-net's K_e = 20 curve (a
+"fair" comparison: Y-net at K_e = 20 draws K_e x K_a paths). The K_a values are those of Y-net's
+own grid (`eval.<profile>.ka_grid_k_a`), so the two curves share their x values; K is
+`evaluate_baseline.k` x K_a. Scored with the shared metric over `evaluate_baseline.rounds` rounds.
+
+    python -m pipeline.evaluate_pecnet_ka --table data/horizon_windows/tf30.parquet \
+        --checkpoint-dir checkpoints/pecnet_tf30 --metrics metrics/baselines/pecnet_ka.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import torch
+
+from pipeline import baselines
+from pipeline.baselines.common import load_windows, save_json_atomic, select_split
+from pipeline.evaluate_baseline import EvaluateBaselineParams, evaluate
+from pipeline.evaluate_ynet import EvalParams
+from pipeline.params import load_profile, load_section, read_params
+from pipeline.windows import WindowParams
+
+
+def ka_rows(model, arrays, k_as: list[int], k_per_ka: int, rounds: int, seed: int) -> list[dict]:
+    """One metrics row per K_a: best of K = k_per_ka x K_a samples (mean and std over rounds)."""
+    rows = []
+    for k_a in k_as:
+        scores = evaluate(model, arrays, k_per_ka * k_a, rounds, seed)
+        scores.pop("per_round")
+        rows.append({"k_a": k_a, **scores})
+    return rows
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--table", type=Path, required=True, help="t_f = 30 window table (parquet)")
+    parser.add_argument("--horizon", type=int, default=30, help="t_f in seconds")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True, help="PECNet trained at --horizon")
+    parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON list written")
+    args = parser.parse_args(argv)
+    all_params = read_params()
+    params = load_section(EvaluateBaselineParams, "evaluate_baseline", all_params)
+    k_as = sorted(set(load_profile(EvalParams, "eval", all_params).ka_grid_k_a))
+    n_past = load_section(WindowParams, "windows", all_params).n_past
+    torch.set_num_threads(params.threads)
+
+    model = baselines.get("pecnet").load(args.checkpoint_dir)
+    arrays = select_split(load_windows(args.table, n_past, args.horizon), params.split)
+    if len(arrays) == 0:
+        raise ValueError(f"{args.table}: no {params.split} windows")
+    rows = ka_rows(model, arrays, k_as, params.k, params.rounds, params.seed)
+    for row in rows:
+        print(f"PECNet K_a = {row['k_a']} (K = {row['k']}): ADE {row['ade']:.2f}  FDE {row['fde']:.2f}")
+    save_json_atomic(rows, args.metrics)
+
+
+if __name__ == "__main__":
+    main()
