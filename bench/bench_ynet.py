@@ -3,7 +3,7 @@
 Not a test: prints numbers. Random weights and a random 6-class semantic map, padded 512 x 416 input
 (deathCircle_0 at resize 0.25), long-term SDD config (n_p 5, n_f 30, waypoints 14 and 29).
 
-    python bench/bench_ynet.py --threads 2 --repeats 3
+    python bench/bench_ynet.py --threads 2 --repeats 3 [--profile cpu|paper]
 
 Timings are wall-clock min / median / max over `--repeats` runs after one warm-up. On a shared
 machine they are noisy: the load average is printed with each line. With 2 threads on 2 cores that
@@ -28,7 +28,10 @@ import time
 
 import torch
 
-from ynet.heatmaps import distance_maps, gaussian_heatmaps, scene_and_past, upstream_max_distance
+from pipeline.params import load_profile, read_params
+from pipeline.train_ynet import YnetSettings
+from ynet.heatmaps import (distance_maps, gaussian_heatmaps, padded_size, scene_and_past,
+                           upstream_max_distance)
 from ynet.loss import ynet_loss
 from ynet.model import YNet, YNetConfig
 from ynet.sampling import SamplingOptions, predict, sample_waypoints, softargmax
@@ -157,6 +160,8 @@ def main():
     parser.add_argument("--skip-training", action="store_true")
     parser.add_argument("--skip-eval", action="store_true")
     parser.add_argument("--no-malloc-tuning", action="store_true", help="leave glibc malloc at its defaults")
+    parser.add_argument("--profile", choices=("cpu", "paper"),
+                        help="use params.yaml's ynet.<profile> resize (the map shrinks with it) and batch size")
     args = parser.parse_args()
     if not args.no_malloc_tuning and os.environ.get("GLIBC_TUNABLES") != KEEP_FREED_MEMORY:
         os.execve(sys.executable, [sys.executable, *sys.argv], {**os.environ, "GLIBC_TUNABLES": KEEP_FREED_MEMORY})
@@ -166,8 +171,14 @@ def main():
     # make x86 arithmetic ~10x slower (~1 s per optimiser step here); flushing them costs no accuracy.
     torch.set_flush_denormal(not args.keep_denormals)
     cfg = YNetConfig(obs_len=5, pred_len=30, semantic_classes=6, waypoints=(14, 29))
-    h, w = args.height, args.width
-    max_distance = upstream_max_distance(0.25)
+    h, w, resize, batches = args.height, args.width, 0.25, [(1, False), (1, True), (8, True)]
+    if args.profile:
+        settings = load_profile(YnetSettings, "ynet", {**read_params(), "profile": args.profile})
+        resize = settings.resize
+        h, w = padded_size(round(args.height * resize / 0.25), round(args.width * resize / 0.25))
+        batches = [(1, True), (settings.batch_size, True)]
+        print(f"profile {args.profile}: resize {resize}, batch {settings.batch_size}")
+    max_distance = upstream_max_distance(resize)
     n_params = sum(p.numel() for p in YNet(cfg).parameters())
     print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, input 1 x {cfg.in_channels} x {h} x {w}, "
           f"{n_params:,} parameters, flush denormals {not args.keep_denormals}, "
@@ -176,11 +187,11 @@ def main():
 
     if not args.skip_training:
         print("Training step (inputs built, forward, loss, backward, Adam step)")
-        for batch, cl in [(1, False), (1, True), (8, True)]:
+        for batch, cl in batches:
             times = bench_training(cfg, batch, h, w, args.repeats, cl, max_distance)
             layout = "channels_last" if cl else "NCHW         "
-            authors = AUTHORS["train_b1" if batch == 1 else "train_b8"]
-            print(f"  batch {batch} {layout}: {summary(times)}  ({statistics.median(times) / batch:.2f} s per sample)"
+            authors = AUTHORS["train_b1" if batch == 1 else "train_b8"] if resize == 0.25 else "n/a"
+            print(f"  batch {batch} {layout}: {summary(times)}  ({batch / statistics.median(times):.2f} samples/s)"
                   f"   authors: {authors}   peak RSS so far {peak_rss_gib():.1f} GiB   {load()}")
         print()
 
@@ -191,9 +202,10 @@ def main():
             options = SamplingOptions(K_e=20, K_a=k_a)
             for bf16 in (False, True):
                 times = bench_eval(cfg, options, h, w, args.repeats, max_distance, bf16)
-                authors = AUTHORS["eval_ka1" if k_a == 1 else "eval_ka5"]
+                authors = AUTHORS["eval_ka1" if k_a == 1 else "eval_ka5"] if resize == 0.25 else "n/a"
                 precision = "bf16 autocast" if bf16 else "fp32         "
-                print(f"  K_a {k_a} {precision}: {summary(times)}   authors (fp32): {authors}   {load()}")
+                print(f"  K_a {k_a} {precision}: {summary(times)}  ({1 / statistics.median(times):.2f} windows/s)"
+                      f"   authors (fp32): {authors}   {load()}")
         print("  (the authors' evaluation figures are per window over the SDD test scenes, about 152,000 px on"
               f" average at resize 0.25; these are on the {h} x {w} = {h * w:,} px map)")
         print("\nBreakdown of one fp32 window, K_e 20, K_a 1:")

@@ -186,6 +186,8 @@ def lookup(store: MetricsStore, rel: str, path: tuple[str, ...], t_f: int | None
         return Absent(record["not_run_reason"], "status")  # a stage that said why it did not run
     node, parent, rounds = record, None, None
     for key in path:
+        if isinstance(node, dict) and isinstance(node.get("not_run_reason"), str):
+            return Absent(node["not_run_reason"], "status")  # e.g. one model of a merged file
         if not isinstance(node, dict) or key not in node:
             return Absent(f"{store.where(rel)} has no {'.'.join(path)}", "invalid")
         rounds = node.get("rounds", rounds)  # the innermost count applies (an ablation may differ)
@@ -773,7 +775,7 @@ def segmentation_gallery(folder: Path, videos: Iterable[str], slot) -> dict[str,
         return {"absent": f"stage not yet run: {folder.as_posix()} missing (the segmentation stages "
                           "draw these figures)", "kinds": [], "rows": [], "other": []}
     kinds = sorted({p.parent for p in folder.rglob("*.png")}, key=lambda p: p.as_posix())
-    kind_names = [k.relative_to(folder).as_posix() if k != folder else "top" for k in kinds]
+    kind_names = [k.relative_to(folder).as_posix() if k != folder else folder.name for k in kinds]
     rows, used = [], set()
     for video in sorted(videos, key=video_sort_key):
         pattern = re.compile(rf"^{re.escape(video)}(?!\d)")

@@ -15,6 +15,7 @@ import hashlib
 import json
 import os
 import random
+import shutil
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -222,6 +223,20 @@ def resumable_checkpoint(path: Path, run_id: str, epochs: int) -> dict | None:
     return saved
 
 
+def copy_atomic(source: Path, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    shutil.copyfile(source, tmp)
+    os.replace(tmp, path)
+
+
+def write_history(history: list[dict], path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    pd.DataFrame(history).to_csv(tmp, index=False)
+    os.replace(tmp, path)
+
+
 def save_atomic(payload: dict, path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp")
@@ -249,6 +264,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
 
     state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
     run_id = run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)
+    kept_best = checkpoint.with_name("best.pt")  # the best weights, kept beside the checkpoint
     saved = resumable_checkpoint(checkpoint, run_id, epochs or settings.epochs)
     if saved is not None:
         model.load_state_dict(saved["model"])
@@ -270,11 +286,16 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
         if state["best"] is None or scores["val_ade"] < state["best"]["val_ade"]:
             state["best"] = {"epoch": epoch, **scores}
             save_atomic({"model": model.state_dict(), "config": asdict(model.config),
-                         "settings": asdict(settings), "epoch": epoch}, best_path)
+                         "settings": asdict(settings), "epoch": epoch}, kept_best)
         state["epoch"] = epoch
         save_atomic({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
                      "rng": rng_state(rng), "state": state, "run_id": run_id}, checkpoint)
-        pd.DataFrame(state["history"]).to_csv(history_path, index=False)
+        write_history(state["history"], history_path)
+    # DVC deletes the stage's outputs before a re-run, so a run resumed after its last epoch (or
+    # after the best epoch) must still deliver them: both come from the checkpoint folder.
+    if kept_best != best_path:
+        copy_atomic(kept_best, best_path)
+    write_history(state["history"], history_path)
     return {"epochs": state["epoch"], "best_epoch": state["best"]["epoch"],
             "best_val_ade": state["best"]["val_ade"], "best_val_fde": state["best"]["val_fde"],
             "train_seconds": state["seconds"], "train_windows": len(train_arrays),

@@ -49,6 +49,24 @@ def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
     assert (tmp_path / "a" / "history.csv").read_text().count("\n") == 3
 
 
+def test_a_finished_run_rerun_restores_deleted_outputs(tmp_path):
+    """DVC deletes model and history before re-running; a resumed finished run writes them again."""
+    torch.set_num_threads(1)
+    model_path, history_path = tmp_path / "out" / "model.pt", tmp_path / "out" / "history.csv"
+
+    def train_once():
+        train(arrays(6, "train", 0), arrays(2, "val", 1), MAPS, SIZES, YnetSettings(**SETTINGS), N_PAST,
+              tmp_path / "ckpt" / "last.pt", model_path, history_path)
+
+    train_once()
+    model, history = model_path.read_bytes(), history_path.read_text()
+    model_path.unlink()
+    history_path.unlink()
+    train_once()
+    assert model_path.read_bytes() == model
+    assert history_path.read_text() == history
+
+
 def test_a_checkpoint_of_other_settings_is_not_resumed(tmp_path, capsys):
     torch.set_num_threads(1)
     run(tmp_path / "b", epochs=1)  # an interrupted run with the old settings

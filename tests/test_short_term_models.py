@@ -1,0 +1,337 @@
+"""Short-term stages on tiny synthetic benchmarks: Y-net / S-GAN / PECNet train, score and write the
+run layout; ETH/UCY errors come back in metres; the merged files fill the report's Tables 1 and 2.
+
+Fixtures are written here in the stages' formats: window tables (`pipeline.window_table` schema plus
+x_m, y_m), the ETH/UCY scene folder (`maps.npz` + `index.json`, as `pipeline.short_term` writes it),
+SDD maps and reference images, and a params.yaml with tiny settings.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+import yaml
+
+from pipeline import report
+from pipeline.homography import metres_to_pixels
+from pipeline.metrics import window_errors
+from pipeline.params import load_profile, read_params
+from pipeline.semantic_maps import quantise
+from pipeline.short_term import EthUcySceneInfo, load_ethucy_scenes
+from pipeline.short_term_models import (DATASETS, ShortTermModelsParams, ShortTermYnetSettings,
+                                        epoch_sample, load_benchmark, main, to_metres, train_ynet)
+from pipeline.short_term_tables import main as tables_main
+from pipeline.window_table import WindowArrays
+from pipeline.ynet_data import group_by_scene
+
+REPO = Path(__file__).resolve().parents[1]
+N_PAST, N_FUTURE = 8, 12
+# Pixels -> metres: 0.05 m per pixel along x, 0.1 m per pixel along y (as (row, column) when swapped).
+H_PLAIN = np.diag([0.05, 0.1, 1.0])
+ETH_SCENES = {"zara1": (H_PLAIN, False), "eth": (H_PLAIN, True)}  # fold "eth": test scene eth
+IMAGE_HW = (240, 320)
+
+
+# ---------------------------------------------------------------------------------------------
+# Fixtures in the stages' formats
+
+
+def tracks(n: int, rng: np.random.Generator, hw=IMAGE_HW) -> np.ndarray:
+    """(n, 20, 2) pixel tracks walking at 4 px/step in random directions inside the image."""
+    heading = rng.uniform(0, 2 * np.pi, n)
+    step = 4.0 * np.stack([np.cos(heading), np.sin(heading)], -1)  # (n, 2)
+    start = rng.uniform([100, 80], [hw[1] - 100, hw[0] - 80], (n, 2))
+    return start[:, None] + np.arange(N_PAST + N_FUTURE)[None, :, None] * step[:, None]
+
+
+def window_table(parts: list[tuple[str, str, np.ndarray]], to_metres=None) -> pd.DataFrame:
+    """Long-format table of windows (scene, split, pixel tracks (n, 20, 2)) plus x_m, y_m."""
+    rows, window = [], 0
+    for scene, split, xy in parts:
+        metres = xy if to_metres is None else to_metres(scene, xy)
+        for i in range(len(xy)):
+            for step in range(N_PAST + N_FUTURE):
+                rows.append({"window_id": window, "scene_id": scene, "track_id": i, "step": step,
+                             "frame": 100 * i + 10 * step, "x": xy[i, step, 0], "y": xy[i, step, 1],
+                             "split": split, "t_f": N_FUTURE, "source": "sgan",
+                             "x_m": metres[i, step, 0], "y_m": metres[i, step, 1]})
+            window += 1
+    return pd.DataFrame(rows)
+
+
+def write_maps(folder: Path, names, channels: int, hw=(60, 80)) -> None:
+    """`maps.npz` as pipeline.semantic_maps stores it: uint8 probabilities per scene."""
+    folder.mkdir(parents=True, exist_ok=True)
+    maps = np.zeros((channels, *hw), np.float32)
+    maps[1:] = 1.0 / (channels - 1)
+    np.savez_compressed(folder / "maps.npz", **{name: quantise(maps) for name in names})
+
+
+def write_ethucy(windows: Path) -> None:
+    """Fold `eth` (test: eth; train/val: zara1) and its scene folder, homographies as above."""
+    rng = np.random.default_rng(0)
+
+    def metres(scene: str, xy: np.ndarray) -> np.ndarray:
+        h, swap = ETH_SCENES[scene]
+        return to_metres(xy, np.full(len(xy), scene), {scene: EthUcySceneInfo(IMAGE_HW, h, swap)})
+
+    table = window_table([("zara1", "train", tracks(12, rng)), ("zara1", "val", tracks(4, rng)),
+                          ("eth", "test", tracks(5, rng))], metres)
+    windows.mkdir(parents=True, exist_ok=True)
+    table.to_parquet(windows / "ethucy_eth.parquet", index=False)
+    scenes = windows / "ethucy_semantic"
+    write_maps(scenes, ETH_SCENES, channels=3)
+    (scenes / "index.json").write_text(json.dumps({"scenes": {
+        name: {"image_hw": list(IMAGE_HW), "homography": h.tolist(), "swap": swap}
+        for name, (h, swap) in ETH_SCENES.items()}}))
+
+
+def write_sdd(windows: Path, sdd_root: Path, maps: Path) -> None:
+    rng = np.random.default_rng(1)
+    table = window_table([("gates_0", "train", tracks(12, rng)), ("gates_1", "val", tracks(4, rng)),
+                          ("gates_2", "test", tracks(5, rng))])
+    windows.mkdir(parents=True, exist_ok=True)
+    table.to_parquet(windows / "sdd_trajnet.parquet", index=False)
+    for video in range(3):
+        folder = sdd_root / "annotations" / "gates" / f"video{video}"
+        folder.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(folder / "reference.jpg"), np.zeros((*IMAGE_HW, 3), np.uint8))
+    write_maps(maps, [f"gates_{v}" for v in range(3)], channels=6)
+
+
+def tiny_params() -> dict:
+    """params.yaml with the real sections' keys and tiny values (both profiles the same)."""
+    real = read_params(REPO / "params.yaml")
+    ynet = {**real["ynet"]["cpu"], "batch_size": 2, "learning_rate": 1e-3, "augmentations": 2,
+            "encoder_channels": [4, 4, 8, 8, 8], "decoder_channels": [8, 8, 8, 4, 4], "threads": 1,
+            "distance_norm": "map"}
+    short = {**real["short_term_models"]["cpu"],
+             "epochs": {m: {"sdd": 2, "ethucy": 2} for m in ("ynet", "sgan", "pecnet")},
+             "ynet_steps_per_epoch": 3, "val_windows": 3, "rounds": 2,
+             "ynet_sdd": {"resize": 0.25, "kernel_size": 5, "sigma": 1.0},
+             "ynet_ethucy": {"resize": 0.25, "kernel_size": 5, "sigma": 1.0},
+             "ynet_datasets": ["sdd", "eth"], "why_subset": "tiny test"}
+    sgan = {**real["sgan"]["cpu"], "batch_size": 8, "pool_hidden": 16, "best_of_k": 2, "val_k": 2}
+    pecnet = {**real["pecnet"]["cpu"], "batch_size": 8, "past_hidden": [16], "decoder_hidden": [16],
+              "predictor_hidden": [16], "nonlocal_hidden": [8], "nonlocal_dim": 8, "val_k": 2}
+    both = lambda section: {"cpu": section, "paper": section}  # noqa: E731
+    return {"profile": "cpu", "short_term": real["short_term"],
+            "train_baseline": {"seed": 0, "threads": 1}, "ynet": both(ynet),
+            "short_term_models": both(short), "sgan": both(sgan), "pecnet": both(pecnet)}
+
+
+@pytest.fixture(scope="module")
+def project(tmp_path_factory) -> Path:
+    """A project folder after every short-term run the tests need (run once for the module)."""
+    root = tmp_path_factory.mktemp("short_term")
+    (root / "params.yaml").write_text(yaml.safe_dump(tiny_params()))
+    windows = root / "data" / "short_term"
+    write_ethucy(windows)
+    write_sdd(windows, root / "sdd", root / "semantic_maps")
+    torch.set_num_threads(1)
+    runs = root / "metrics" / "short_term" / "runs"
+    cwd = Path.cwd()
+    try:
+        os.chdir(root)  # stages read ./params.yaml
+        for dataset, model in (("eth", "ynet"), ("eth", "sgan"), ("eth", "pecnet"), ("sdd", "ynet"),
+                               ("sdd", "pecnet"), ("hotel", "ynet")):
+            maps = windows / "ethucy_semantic" if dataset != "sdd" else root / "semantic_maps"
+            main(["--dataset", dataset, "--model", model, "--windows", str(windows),
+                  "--maps", str(maps), "--sdd", str(root / "sdd"),
+                  "--checkpoint-dir", str(root / "checkpoints" / f"{dataset}_{model}"),
+                  "--metrics", str(runs / f"{dataset}_{model}.json")])
+        tables_main(["--runs", str(runs), "--out", str(root / "metrics" / "short_term")])
+    finally:
+        os.chdir(cwd)
+    return root
+
+
+def run_record(project: Path, name: str) -> dict:
+    return json.loads((project / "metrics" / "short_term" / "runs" / f"{name}.json").read_text())
+
+
+# ---------------------------------------------------------------------------------------------
+# Runs
+
+
+@pytest.mark.parametrize("name, unit, ks", [("eth_ynet", "m", [20]), ("eth_sgan", "m", [20]),
+                                            ("eth_pecnet", "m", [20]), ("sdd_ynet", "px", [20, 5]),
+                                            ("sdd_pecnet", "px", [20, 5])])
+def test_a_run_writes_its_metrics_layout(project, name, unit, ks):
+    record = run_record(project, name)
+    assert [record["dataset"], record["model"]] == name.split("_")
+    assert record["trained"] is True and record["unit"] == unit and record["ks"] == ks
+    assert record["n_windows"] == 5 and record["rounds"] == 2
+    for k in ks:
+        result = record[f"k{k}"]
+        for metric in ("ade", "fde", "ade_joint", "fde_joint"):
+            assert set(result[metric]) == {"mean", "std", "min", "max"}
+            assert np.isfinite(result[metric]["mean"]) and result[metric]["mean"] > 0
+        assert len(result["per_round"]) == 2
+        assert result["fde_joint"]["mean"] >= result["fde"]["mean"]
+    assert record["train"]["epochs"] == 2 and record["train"]["val_windows"] == 3
+    assert record["train_seconds"] > 0 and record["eval_seconds"] > 0
+    assert (project / "checkpoints" / name / "best.pt").exists()
+
+
+def test_ynet_runs_the_short_term_configuration(project):
+    record = run_record(project, "eth_ynet")["train"]["settings"]
+    assert record["waypoints"] == [N_FUTURE - 1] and record["semantic_classes"] == 3
+    assert record["resize"] == 0.25 and record["steps_per_epoch"] == 3
+    assert run_record(project, "sdd_ynet")["train"]["settings"]["semantic_classes"] == 6
+
+
+def test_smaller_k_is_never_better(project):
+    record = run_record(project, "sdd_pecnet")
+    assert record["k5"]["ade"]["mean"] >= record["k20"]["ade"]["mean"] - 1e-9
+
+
+def test_ynet_outside_the_profile_datasets_leaves_a_reason(project):
+    record = run_record(project, "hotel_ynet")
+    assert record["trained"] is False and "tiny test" in record["not_run_reason"]
+    assert not (project / "checkpoints" / "hotel_ynet").exists()
+
+
+def test_ynet_resumes_to_the_same_weights(tmp_path):
+    """The stage's own training loop: 2 epochs straight == 1 epoch, then resumed to 2."""
+    torch.set_num_threads(1)
+    rng = np.random.default_rng(2)
+    xy = tracks(10, rng)
+
+    def arrays(rows, split):
+        n = len(rows)
+        return WindowArrays(past=xy[rows, :N_PAST], future=xy[rows, N_PAST:], window_id=rows,
+                            scene_id=np.array(["zara1"] * n), track_id=rows,
+                            first_frame=np.zeros(n), split=np.array([split] * n))
+
+    settings = ShortTermYnetSettings(
+        resize=0.25, epochs=2, batch_size=2, learning_rate=1e-3, augmentations=1, kernel_size=5,
+        sigma=1.0, waypoints=[N_FUTURE - 1], encoder_channels=[4, 4, 8, 8, 8],
+        decoder_channels=[8, 8, 8, 4, 4], distance_norm="map", threads=1, semantic_classes=3,
+        steps_per_epoch=2)
+    maps = {"zara1": np.full((3, 60, 80), 1 / 3, np.float32)}
+    sizes = {"zara1": IMAGE_HW}
+    args = (arrays(np.arange(8), "train"), arrays(np.arange(8, 10), "val"), maps, sizes)
+    train_ynet(*args, settings, N_PAST, tmp_path / "a")
+    train_ynet(*args, ShortTermYnetSettings(**{**settings.__dict__, "epochs": 1}), N_PAST,
+               tmp_path / "b")
+    train_ynet(*args, settings, N_PAST, tmp_path / "b")
+    straight, resumed = (torch.load(tmp_path / f / "last.pt", weights_only=True)["model"]
+                         for f in ("a", "b"))
+    for name in straight:
+        torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)
+
+
+def test_epoch_sample_caps_the_steps():
+    rng = np.random.default_rng(0)
+    xy = torch.from_numpy(tracks(40, rng)).float()
+    scenes = [group_by_scene(WindowArrays(
+        past=xy[i::2, :N_PAST].numpy(), future=xy[i::2, N_PAST:].numpy(), window_id=np.arange(20),
+        scene_id=np.array([f"s{i}"] * 20), track_id=np.arange(20), first_frame=np.zeros(20),
+        split=np.array(["train"] * 20)), {f"s{i}": np.ones((3, 8, 8), np.float32)},
+        {f"s{i}": IMAGE_HW}, 0.25)[0] for i in range(2)]
+    capped = ShortTermYnetSettings(batch_size=2, augmentations=1, steps_per_epoch=5)
+    cut = epoch_sample(scenes, capped, np.random.default_rng(0))
+    assert sum(len(s) for s in cut) == 10  # 5 steps x 2 windows
+    assert epoch_sample(scenes, ShortTermYnetSettings(steps_per_epoch=0), rng) is scenes
+
+
+# ---------------------------------------------------------------------------------------------
+# Metres
+
+
+def fold_benchmark(tmp_path: Path):
+    write_ethucy(tmp_path)
+    table = pd.read_parquet(tmp_path / "ethucy_eth.parquet")
+    scenes = load_ethucy_scenes(tmp_path / "ethucy_semantic")
+    return load_benchmark(table, "eth", N_PAST, N_FUTURE, scenes)
+
+
+def test_a_perfect_pixel_prediction_is_zero_metres_off(tmp_path):
+    bench = fold_benchmark(tmp_path)
+    assert bench.unit == "m"
+    errors = window_errors(bench.to_unit(bench.test.future[:, None]), bench.truth)
+    np.testing.assert_allclose(errors.ade, 0, atol=1e-9)
+    np.testing.assert_allclose(errors.fde, 0, atol=1e-9)
+
+
+@pytest.mark.parametrize("offset, metres", [((1.0, 0.0), 0.1), ((0.0, 1.0), 0.05)])
+def test_a_one_pixel_offset_costs_its_metres_through_the_homography(tmp_path, offset, metres):
+    """eth is swapped: H takes (row, column), so x (column) gets H's 0.1 m and y (row) its 0.05 m."""
+    bench = fold_benchmark(tmp_path)
+    shifted = bench.test.future[:, None] + np.array(offset)
+    goals = shifted[:, :, -1]
+    errors = window_errors(bench.to_unit(shifted), bench.truth, bench.to_unit(goals))
+    np.testing.assert_allclose(errors.ade, metres, rtol=1e-9)
+    np.testing.assert_allclose(errors.fde, metres, rtol=1e-9)
+
+
+def test_to_metres_inverts_metres_to_pixels():
+    rng = np.random.default_rng(3)
+    h = np.array([[0.02, 0.001, -3.0], [0.0005, 0.03, 1.0], [1e-5, 2e-5, 1.0]])
+    metres = rng.uniform(0, 10, (6, 12, 2))
+    for swap in (False, True):
+        pixels = metres_to_pixels(metres, h, swap)
+        back = to_metres(pixels, np.full(6, "s"), {"s": EthUcySceneInfo((480, 640), h, swap)})
+        np.testing.assert_allclose(back, metres, atol=1e-9)
+
+
+def test_tables_and_homographies_that_disagree_fail(tmp_path):
+    write_ethucy(tmp_path)
+    table = pd.read_parquet(tmp_path / "ethucy_eth.parquet")
+    scenes = load_ethucy_scenes(tmp_path / "ethucy_semantic")
+    scenes["eth"] = EthUcySceneInfo(IMAGE_HW, scenes["eth"].homography, swap=False)  # wrong flag
+    with pytest.raises(ValueError, match="disagree"):
+        load_benchmark(table, "eth", N_PAST, N_FUTURE, scenes)
+
+
+# ---------------------------------------------------------------------------------------------
+# Merged files and the report
+
+
+def test_merged_files_have_the_report_layout(project):
+    out = project / "metrics" / "short_term"
+    sdd = json.loads((out / "sdd.json").read_text())
+    assert sdd["unit"] == "px" and sdd["rounds"] == 2 and set(sdd["models"]) == {"ynet", "pecnet"}
+    assert set(sdd["models"]["ynet"]) == {"k20", "k5"}
+    assert set(sdd["models"]["ynet"]["k5"]["ade"]) == {"mean", "std", "min", "max", "rounds"}
+    eth = json.loads((out / "ethucy_eth.json").read_text())
+    assert eth["unit"] == "m" and set(eth["models"]) == {"ynet", "sgan", "pecnet"}
+    assert eth["models"]["ynet"]["ade"]["mean"] == run_record(project, "eth_ynet")["k20"]["ade"]["mean"]
+    hotel = json.loads((out / "ethucy_hotel.json").read_text())
+    assert "not_run_reason" in hotel["models"]["ynet"]
+    assert {p.name for p in out.glob("*.json")} == {
+        "sdd.json", *(f"ethucy_{d}.json" for d in DATASETS if d != "sdd")}
+
+
+def test_the_report_shows_the_merged_numbers_as_measured(project):
+    paper = yaml.safe_load((REPO / "pipeline" / "paper_values.yaml").read_text())
+    store = report.load_metrics(project / "metrics")
+    bands = report.ReportParams(close=0.05, far=0.2)
+    table1 = report.table_sdd_short(paper["sdd_short"], store, bands)
+    kinds = {(c["model"], c["k"]): cell.kind for c, cell in
+             zip(paper["sdd_short"]["columns"], table1.rows[0].cells)}
+    assert kinds["ynet", 20] == kinds["ynet", 5] == kinds["pecnet", 20] == kinds["pecnet", 5] == "measured"
+    assert kinds["sgan", 20] == "absent"  # not run in this fixture
+    table2 = report.table_eth_ucy(paper["eth_ucy"], store, bands)
+    eth_row = table2.rows[paper["eth_ucy"]["scenes"].index("eth")]
+    labels = [(col.group, col.label) for col in table2.columns]
+    measured = {label for label, cell in zip(labels, eth_row.cells) if cell.kind == "measured"}
+    assert {("Y-net", "ADE"), ("S-GAN", "FDE"), ("PECNet", "ADE")} <= measured
+
+
+def test_params_yaml_section_validates_for_both_profiles():
+    params = read_params(REPO / "params.yaml")
+    cpu = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "cpu"})
+    paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})
+    assert paper.ynet_datasets == list(DATASETS) and paper.rounds >= 3
+    assert paper.ynet_sdd.resize == 0.25 and abs(paper.ynet_ethucy.resize - 1 / 1.5) < 1e-6
+    assert paper.epochs["ynet"] == {"sdd": 300, "ethucy": 300}
+    assert set(cpu.ynet_datasets) <= set(DATASETS) and cpu.temperature == paper.temperature == 1.0
