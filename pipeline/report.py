@@ -182,12 +182,10 @@ def lookup(store: MetricsStore, rel: str, path: tuple[str, ...], t_f: int | None
     mismatch = horizon_mismatch(store, rel, record, t_f)
     if mismatch:
         return mismatch
-    if isinstance(record, dict) and isinstance(record.get("not_run_reason"), str):
-        return Absent(record["not_run_reason"], "status")  # a stage that said why it did not run
     node, parent, rounds = record, None, None
     for key in path:
         if isinstance(node, dict) and isinstance(node.get("not_run_reason"), str):
-            return Absent(node["not_run_reason"], "status")  # e.g. one model of a merged file
+            return Absent(node["not_run_reason"], "status")  # a stage (or one model in it) said why
         if not isinstance(node, dict) or key not in node:
             return Absent(f"{store.where(rel)} has no {'.'.join(path)}", "invalid")
         rounds = node.get("rounds", rounds)  # the innermost count applies (an ablation may differ)

@@ -23,10 +23,8 @@ and compared with the table's metre columns `x_m`, `y_m`; upstream mixes pixels 
 A Y-net run on a dataset outside `ynet_datasets` writes {"not_run_reason": ...} instead (a
 profile's choice, as `ynet_horizons`), which the report shows in the cell.
 
-`pipeline.train_ynet.YnetSettings` has no `semantic_classes` (it builds 6-channel models) and no
-`steps_per_epoch` yet: `ShortTermYnetSettings` and `train_ynet` below stand in for them (the same
-loop, checkpoints and resumption as `train_ynet.train`). Once YnetSettings has both fields, they
-give way to `YnetSettings` and `train_ynet.train`.
+Y-net trains with `pipeline.train_ynet.train` (the same loop, checkpoints and resumption as the
+long-term model); `YnetSettings.semantic_classes` and `steps_per_epoch` carry the differences.
 
     python -m pipeline.short_term_models --dataset eth --model ynet --windows data/short_term \\
         --maps data/short_term/ethucy_semantic --checkpoint-dir checkpoints/short_term/eth_ynet \\
@@ -36,7 +34,6 @@ give way to `YnetSettings` and `train_ynet.train`.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
@@ -57,11 +54,9 @@ from pipeline.semantic_maps import load_semantic_maps
 from pipeline.short_term import (FOLD_TEST_SCENES, EthUcySceneInfo, ShortTermParams,
                                  load_ethucy_scenes)
 from pipeline.train_baseline import TrainBaselineParams, model_config
-from pipeline.train_ynet import (YnetSettings, image_sizes, resumable_checkpoint, rng_state,
-                                 run_fingerprint, save_atomic, seed_everything, train_epoch, validate)
+from pipeline.train_ynet import YnetSettings, image_sizes, train
 from pipeline.window_table import WindowArrays, to_arrays
-from pipeline.ynet_data import SceneWindows, group_by_scene
-from ynet.model import YNet, YNetConfig
+from pipeline.ynet_data import group_by_scene
 
 DATASETS = ("sdd", *FOLD_TEST_SCENES)  # sdd, then the five ETH/UCY folds
 MODELS = ("ynet", "sgan", "pecnet")
@@ -163,33 +158,11 @@ class ShortTermModelsParams:
                           chunk_size=self.eval_chunk_size, bf16=self.bf16)
 
 
-@dataclass
-class ShortTermYnetSettings(YnetSettings):
-    """`YnetSettings` plus the two fields it lacks so far (see the module docstring)."""
-
-    semantic_classes: int = 6
-    """Channels of the scene map: SDD 6 (5 classes + padding), ETH/UCY 3 (2 classes + padding)."""
-    steps_per_epoch: int = 0
-    """Optimiser steps per epoch, about; 0 = every training window under every augmentation."""
-
-    def __post_init__(self):
-        super().__post_init__()
-        if self.semantic_classes < 1 or self.steps_per_epoch < 0:
-            raise ValueError("semantic_classes must be positive and steps_per_epoch >= 0")
-
-    def model_config(self, n_past: int, n_future: int) -> YNetConfig:
-        return replace(super().model_config(n_past, n_future), semantic_classes=self.semantic_classes)
-
-    def base(self) -> dict:
-        """The fields `YnetSettings` knows: what `evaluate_ynet.load_model` rebuilds settings from."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(YnetSettings)}
-
-
 def ynet_settings(base: YnetSettings, params: ShortTermModelsParams, dataset: str, n_future: int,
-                  semantic_classes: int) -> ShortTermYnetSettings:
+                  semantic_classes: int) -> YnetSettings:
     """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale and epochs."""
     scale = params.ynet_sdd if dataset == "sdd" else params.ynet_ethucy
-    return ShortTermYnetSettings(**{
+    return YnetSettings(**{
         **asdict(base), **asdict(scale), "waypoints": [n_future - 1],
         "epochs": params.epochs["ynet"][benchmark_of(dataset)],
         "semantic_classes": semantic_classes, "steps_per_epoch": params.ynet_steps_per_epoch})
@@ -284,78 +257,12 @@ def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None]], bench: 
 # Y-net
 
 
-def epoch_sample(scenes: list[SceneWindows], settings: ShortTermYnetSettings,
-                 rng: np.random.Generator) -> list[SceneWindows]:
-    """The scenes cut to this epoch's random windows: about `steps_per_epoch` batches (all if 0)."""
-    total = sum(len(s) for s in scenes)
-    take = settings.steps_per_epoch * settings.batch_size // settings.augmentations
-    if not settings.steps_per_epoch or take >= total:
-        return scenes
-    chosen = np.sort(rng.choice(total, take, replace=False))
-    bounds = np.cumsum([0] + [len(s) for s in scenes])
-    cut = [scene.subset(chosen[(chosen >= lo) & (chosen < hi)] - lo)
-           for scene, lo, hi in zip(scenes, bounds[:-1], bounds[1:])]
-    return [scene for scene in cut if len(scene)]
-
-
-def train_ynet(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, sizes,
-               settings: ShortTermYnetSettings, n_past: int, folder: Path) -> dict:
-    """`pipeline.train_ynet.train` with `steps_per_epoch`: the same loop, resume and checkpoints.
-
-    `folder` gets `last.pt` (resumable), `best.pt` (the best epoch on val; `evaluate_ynet.load_model`
-    reads it) and `history.csv`. To be replaced by `train_ynet.train` once YnetSettings has
-    `semantic_classes` and `steps_per_epoch` (the change is in the stage's report).
-    """
-    torch.set_num_threads(settings.threads)
-    torch.set_flush_denormal(True)  # Adam crawls through denormal numbers on CPU otherwise
-    seed_everything(settings.seed)
-    model = YNet(settings.model_config(n_past, train_arrays.future.shape[1]))
-    optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
-    rng = np.random.default_rng(settings.seed)
-    train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize)
-    val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize)
-
-    folder.mkdir(parents=True, exist_ok=True)
-    checkpoint, best_path = folder / "last.pt", folder / "best.pt"
-    state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
-    run_id = run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)
-    saved = resumable_checkpoint(checkpoint, run_id, settings.epochs)
-    if saved is not None:
-        model.load_state_dict(saved["model"])
-        optimizer.load_state_dict(saved["optimizer"])
-        rng.bit_generator.state = saved["rng"]["numpy_plan"]
-        torch.set_rng_state(saved["rng"]["torch"])
-        state = saved["state"]
-        print(f"short_term_models: resuming Y-net after epoch {state['epoch']}")
-    for epoch in range(state["epoch"] + 1, settings.epochs + 1):
-        start = time.perf_counter()
-        loss = train_epoch(model, optimizer, epoch_sample(train_scenes, settings, rng), settings,
-                           rng, epoch)
-        scores = validate(model, val_scenes, settings)
-        state["seconds"] += time.perf_counter() - start
-        state["history"].append({"epoch": epoch, "train_loss": loss, **scores,
-                                 "seconds": state["seconds"]})
-        print(f"epoch {epoch}: loss {loss:.3f}  val ADE {scores['val_ade']:.2f}  "
-              f"FDE {scores['val_fde']:.2f} px  ({state['seconds']:.0f} s)")
-        if state["best"] is None or scores["val_ade"] < state["best"]["val_ade"]:
-            state["best"] = {"epoch": epoch, **scores}
-            save_atomic({"model": model.state_dict(), "config": asdict(model.config),
-                         "settings": settings.base(), "epoch": epoch}, best_path)
-        state["epoch"] = epoch
-        save_atomic({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
-                     "rng": rng_state(rng), "state": state, "run_id": run_id}, checkpoint)
-        pd.DataFrame(state["history"]).to_csv(folder / "history.csv", index=False)
-    return {"epochs": state["epoch"], "best_epoch": state["best"]["epoch"],
-            "best_val_ade_px": state["best"]["val_ade"], "best_val_fde_px": state["best"]["val_fde"],
-            "train_seconds": state["seconds"], "train_windows": len(train_arrays),
-            "val_windows": len(val_arrays)}
-
-
-def run_ynet(bench: Benchmark, semantic_maps, sizes, settings: ShortTermYnetSettings, n_past: int,
+def run_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n_past: int,
              folder: Path, params: ShortTermModelsParams, ks: list[int]) -> tuple[dict, dict[int, dict]]:
     """Train (or resume) Y-net, then score its best epoch at every K_e of `ks`."""
     val = sample_windows(bench.val, params.val_windows, params.seed)
-    facts = train_ynet(bench.train, val, semantic_maps, sizes, settings, n_past, folder)
+    facts = train(bench.train, val, semantic_maps, sizes, settings, n_past, folder / "last.pt",
+                  folder / "best.pt", folder / "history.csv")
     model, loaded = load_model(folder / "best.pt")
     torch.set_num_threads(loaded.threads)
     scenes = group_by_scene(bench.test, semantic_maps, sizes, loaded.resize)

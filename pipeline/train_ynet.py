@@ -69,6 +69,10 @@ class YnetSettings:
     """Seeds weights, shuffling and augmentation draws."""
     threads: int = 2
     """CPU threads for torch."""
+    semantic_classes: int = 6
+    """Channels of the scene map: SDD 6 (5 classes + padding), ETH/UCY 3 (road, not road, padding)."""
+    steps_per_epoch: int = 0
+    """Optimiser steps per epoch: the first of the epoch's shuffled batches; 0 = all of them."""
 
     def __post_init__(self):
         if not 0 < self.resize <= 1:
@@ -77,11 +81,13 @@ class YnetSettings:
             raise ValueError(f"augmentations must be 1..{len(AUGMENTATIONS)}")
         if self.distance_norm not in ("upstream", "map"):
             raise ValueError("distance_norm must be 'upstream' or 'map'")
-        if min(self.epochs, self.batch_size) < 1:
-            raise ValueError("epochs and batch_size must be positive")
+        if min(self.epochs, self.batch_size, self.semantic_classes) < 1:
+            raise ValueError("epochs, batch_size and semantic_classes must be positive")
+        if self.steps_per_epoch < 0:
+            raise ValueError("steps_per_epoch must be >= 0 (0 = every batch)")
 
     def model_config(self, n_past: int, n_future: int) -> YNetConfig:
-        return YNetConfig(obs_len=n_past, pred_len=n_future, semantic_classes=6,
+        return YNetConfig(obs_len=n_past, pred_len=n_future, semantic_classes=self.semantic_classes,
                           encoder_channels=tuple(self.encoder_channels),
                           decoder_channels=tuple(self.decoder_channels),
                           waypoints=tuple(self.waypoints))
@@ -170,6 +176,8 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
     model.train()
     losses = []
     plan = epoch_plan(scenes, settings, rng)
+    if settings.steps_per_epoch:
+        plan = plan[:settings.steps_per_epoch]  # shuffled: a random subset of the batches
     augmented: dict[tuple[int, int, bool], tuple[SceneWindows, torch.Tensor]] = {}
     for s, turns, flip, rows in tqdm(plan, desc=f"epoch {epoch}", leave=False, disable=None):
         key = (s, turns, flip)
@@ -190,13 +198,17 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
 
 
 RESUMABLE_SETTINGS = ("epochs", "threads")  # may change between an interrupted run and its resumption
+# Settings added after checkpoints existed: left out of the fingerprint at their defaults, so those
+# checkpoints still resume.
+ADDED_SETTINGS = {"semantic_classes": 6, "steps_per_epoch": 0}
 
 
 def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str, np.ndarray],
                     *arrays: WindowArrays) -> str:
     """SHA-256 of what a training run depends on: settings, windows and scene maps."""
     digest = hashlib.sha256()
-    kept = {k: v for k, v in asdict(settings).items() if k not in RESUMABLE_SETTINGS}
+    kept = {k: v for k, v in asdict(settings).items() if k not in RESUMABLE_SETTINGS
+            and not (k in ADDED_SETTINGS and v == ADDED_SETTINGS[k])}
     digest.update(json.dumps({"settings": kept, "n_past": n_past}, sort_keys=True).encode())
     for a in arrays:
         for values in (a.window_id, a.first_frame, a.past, a.future):

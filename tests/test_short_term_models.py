@@ -25,11 +25,12 @@ from pipeline.metrics import window_errors
 from pipeline.params import load_profile, read_params
 from pipeline.semantic_maps import quantise
 from pipeline.short_term import EthUcySceneInfo, load_ethucy_scenes
-from pipeline.short_term_models import (DATASETS, ShortTermModelsParams, ShortTermYnetSettings,
-                                        epoch_sample, load_benchmark, main, to_metres, train_ynet)
+from pipeline.baselines.common import subset
+from pipeline.short_term_models import (DATASETS, ShortTermModelsParams,
+                                        load_benchmark, main, to_metres)
 from pipeline.short_term_tables import main as tables_main
+from pipeline.train_ynet import YnetSettings, train
 from pipeline.window_table import WindowArrays
-from pipeline.ynet_data import group_by_scene
 
 REPO = Path(__file__).resolve().parents[1]
 N_PAST, N_FUTURE = 8, 12
@@ -200,7 +201,7 @@ def test_ynet_outside_the_profile_datasets_leaves_a_reason(project):
 
 
 def test_ynet_resumes_to_the_same_weights(tmp_path):
-    """The stage's own training loop: 2 epochs straight == 1 epoch, then resumed to 2."""
+    """3-channel maps and capped epochs through `train`: 2 epochs straight == 1, then resumed."""
     torch.set_num_threads(1)
     rng = np.random.default_rng(2)
     xy = tracks(10, rng)
@@ -211,7 +212,7 @@ def test_ynet_resumes_to_the_same_weights(tmp_path):
                             scene_id=np.array(["zara1"] * n), track_id=rows,
                             first_frame=np.zeros(n), split=np.array([split] * n))
 
-    settings = ShortTermYnetSettings(
+    settings = YnetSettings(
         resize=0.25, epochs=2, batch_size=2, learning_rate=1e-3, augmentations=1, kernel_size=5,
         sigma=1.0, waypoints=[N_FUTURE - 1], encoder_channels=[4, 4, 8, 8, 8],
         decoder_channels=[8, 8, 8, 4, 4], distance_norm="map", threads=1, semantic_classes=3,
@@ -219,33 +220,39 @@ def test_ynet_resumes_to_the_same_weights(tmp_path):
     maps = {"zara1": np.full((3, 60, 80), 1 / 3, np.float32)}
     sizes = {"zara1": IMAGE_HW}
     args = (arrays(np.arange(8), "train"), arrays(np.arange(8, 10), "val"), maps, sizes)
-    train_ynet(*args, settings, N_PAST, tmp_path / "a")
-    train_ynet(*args, ShortTermYnetSettings(**{**settings.__dict__, "epochs": 1}), N_PAST,
-               tmp_path / "b")
-    train_ynet(*args, settings, N_PAST, tmp_path / "b")
+
+    def train_in(folder, epochs=None):
+        train(*args, settings, N_PAST, folder / "last.pt", folder / "best.pt", folder / "history.csv",
+              epochs)
+
+    train_in(tmp_path / "a")
+    train_in(tmp_path / "b", epochs=1)
+    train_in(tmp_path / "b")
     straight, resumed = (torch.load(tmp_path / f / "last.pt", weights_only=True)["model"]
                          for f in ("a", "b"))
     for name in straight:
         torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)
 
 
-def test_epoch_sample_caps_the_steps():
-    rng = np.random.default_rng(0)
-    xy = torch.from_numpy(tracks(40, rng)).float()
-    scenes = [group_by_scene(WindowArrays(
-        past=xy[i::2, :N_PAST].numpy(), future=xy[i::2, N_PAST:].numpy(), window_id=np.arange(20),
-        scene_id=np.array([f"s{i}"] * 20), track_id=np.arange(20), first_frame=np.zeros(20),
-        split=np.array(["train"] * 20)), {f"s{i}": np.ones((3, 8, 8), np.float32)},
-        {f"s{i}": IMAGE_HW}, 0.25)[0] for i in range(2)]
-    capped = ShortTermYnetSettings(batch_size=2, augmentations=1, steps_per_epoch=5)
-    cut = epoch_sample(scenes, capped, np.random.default_rng(0))
-    assert sum(len(s) for s in cut) == 10  # 5 steps x 2 windows
-    assert epoch_sample(scenes, ShortTermYnetSettings(steps_per_epoch=0), rng) is scenes
-
-
-# ---------------------------------------------------------------------------------------------
-# Metres
-
+def test_steps_per_epoch_caps_the_optimiser_steps(tmp_path):
+    torch.set_num_threads(1)
+    xy = tracks(10, np.random.default_rng(0))
+    rows = np.arange(8)
+    train_arrays = WindowArrays(past=xy[rows, :N_PAST], future=xy[rows, N_PAST:], window_id=rows,
+                                scene_id=np.array(["zara1"] * 8), track_id=rows,
+                                first_frame=np.zeros(8), split=np.array(["train"] * 8))
+    val_arrays = subset(train_arrays, np.arange(2))
+    maps, sizes = {"zara1": np.full((3, 60, 80), 1 / 3, np.float32)}, {"zara1": IMAGE_HW}
+    for cap, steps in ((0, 4), (3, 3)):  # 8 windows in batches of 2: 4 steps uncapped
+        settings = YnetSettings(resize=0.25, epochs=1, batch_size=2, augmentations=1, kernel_size=5,
+                                sigma=1.0, waypoints=[N_FUTURE - 1], encoder_channels=[4, 4, 8, 8, 8],
+                                decoder_channels=[8, 8, 8, 4, 4], distance_norm="map", threads=1,
+                                semantic_classes=3, steps_per_epoch=cap)
+        folder = tmp_path / str(cap)
+        train(train_arrays, val_arrays, maps, sizes, settings, N_PAST, folder / "last.pt",
+              folder / "best.pt", folder / "history.csv")
+        adam = torch.load(folder / "last.pt", weights_only=True)["optimizer"]["state"]
+        assert {int(state["step"]) for state in adam.values()} == {steps}
 
 def fold_benchmark(tmp_path: Path):
     write_ethucy(tmp_path)
