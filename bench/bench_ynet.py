@@ -172,13 +172,15 @@ def main():
     torch.set_flush_denormal(not args.keep_denormals)
     cfg = YNetConfig(obs_len=5, pred_len=30, semantic_classes=6, waypoints=(14, 29))
     h, w, resize, batches = args.height, args.width, 0.25, [(1, False), (1, True), (8, True)]
+    max_distance = upstream_max_distance(resize)
     if args.profile:
         settings = load_profile(YnetSettings, "ynet", {**read_params(), "profile": args.profile})
         resize = settings.resize
         h, w = padded_size(round(args.height * resize / 0.25), round(args.width * resize / 0.25))
         batches = [(1, True), (settings.batch_size, True)]
+        max_distance = settings.max_distance
+        cfg = settings.model_config(5, 30)
         print(f"profile {args.profile}: resize {resize}, batch {settings.batch_size}")
-    max_distance = upstream_max_distance(resize)
     n_params = sum(p.numel() for p in YNet(cfg).parameters())
     print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, input 1 x {cfg.in_channels} x {h} x {w}, "
           f"{n_params:,} parameters, flush denormals {not args.keep_denormals}, "

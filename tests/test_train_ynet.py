@@ -104,3 +104,26 @@ def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
                                                 (10, [4, 9])])
 def test_waypoints_scale_with_the_horizon(n_future, expected):
     assert scale_waypoints([14, 29], n_future) == expected
+
+
+def test_distance_gain_steepens_the_upstream_maps_and_defaults_keep_old_fingerprints():
+    from pipeline.train_ynet import run_fingerprint
+    from ynet.heatmaps import upstream_max_distance
+
+    plain = YnetSettings(resize=0.0625)
+    steep = YnetSettings(resize=0.0625, distance_gain=8.0)
+    assert plain.max_distance == pytest.approx(upstream_max_distance(0.0625))
+    assert steep.max_distance == pytest.approx(plain.max_distance / 8)
+    with pytest.raises(ValueError, match="distance_gain"):
+        YnetSettings(distance_norm="map", distance_gain=2.0)
+    with pytest.raises(ValueError, match="distance_gain"):
+        YnetSettings(distance_gain=0.0)
+    train_arrays = arrays(2, "train", 0)
+    # a setting at its default is left out of the fingerprint, so older checkpoints still resume
+    explicit = YnetSettings(**SETTINGS, distance_gain=1.0, head_bias=None)
+    assert (run_fingerprint(explicit, N_PAST, MAPS, train_arrays)
+            == run_fingerprint(YnetSettings(**SETTINGS), N_PAST, MAPS, train_arrays))
+    other = YnetSettings(**{**SETTINGS, "distance_norm": "upstream"}, distance_gain=8.0)
+    upstream = YnetSettings(**{**SETTINGS, "distance_norm": "upstream"})
+    assert (run_fingerprint(other, N_PAST, MAPS, train_arrays)
+            != run_fingerprint(upstream, N_PAST, MAPS, train_arrays))

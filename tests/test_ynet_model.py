@@ -145,3 +145,19 @@ def test_tiny_model_overfits_one_trajectory():
     fde = (pred.goals[0, 0] - future[0, -1]).norm()
     assert ade < 3.0, ade
     assert fde < 4.0, fde
+
+
+def test_head_bias_starts_every_map_low_and_none_keeps_the_default():
+    torch.manual_seed(0)
+    low = YNet(YNetConfig(**{**TINY.__dict__, "head_bias": -15.0}))
+    x = torch.rand(2, TINY.in_channels, 32, 32)
+    cond = torch.rand(2, TINY.n_waypoints, 32, 32)
+    goal_logits, trajectory_logits = low(x, cond)
+    for logits in (goal_logits, trajectory_logits):
+        assert logits.shape == (2, TINY.pred_len, 32, 32)
+        assert abs(logits.mean().item() + 15.0) < 1.0
+    assert torch.all(low.trajectory_decoder.head.bias == -15.0)
+    torch.manual_seed(0)
+    default = YNet(TINY)
+    assert not torch.all(default.trajectory_decoder.head.bias == -15.0)
+    assert default.trajectory_decoder.head.bias.abs().max() < 1.0
