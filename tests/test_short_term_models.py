@@ -112,7 +112,7 @@ def tiny_params() -> dict:
     real = read_params(REPO / "params.yaml")
     ynet = {**real["ynet"]["cpu"], "batch_size": 2, "learning_rate": 1e-3, "augmentations": 2,
             "encoder_channels": [4, 4, 8, 8, 8], "decoder_channels": [8, 8, 8, 4, 4], "threads": 1,
-            "distance_norm": "map"}
+            "distance_norm": "map", "distance_gain": 1.0}
     short = {**real["short_term_models"]["cpu"],
              "epochs": {m: {"sdd": 2, "ethucy": 2} for m in ("ynet", "sgan", "pecnet")},
              "ynet_steps_per_epoch": 3, "val_windows": 3, "rounds": 2,
