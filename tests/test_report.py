@@ -520,3 +520,13 @@ def test_horizon_figure_takes_30_s_from_the_main_ynet_and_explains_untrained_hor
     assert horizon[30]["ynet"] == 49.5  # ynet_eval.json main ADE
     assert "ynet" not in horizon[40] or horizon[40]["ynet"] is None
     assert "not trained at 40 s in the cpu profile" in (project / "reports/index.html").read_text()
+
+
+def test_a_horizon_not_run_by_the_profile_says_not_run_not_invalid(project):
+    files = data_metrics() | model_metrics()
+    files["ynet_horizons/tf15.json"] = {"t_f": 15, "profile": "cpu", "trained": False,
+                                        "not_run_reason": "not trained at 15 s in this profile"}
+    write_metrics(project / "metrics", files)
+    html = run_report(project).read_text()
+    assert 'title="not trained at 15 s in this profile">not run<' in html
+    assert ">invalid<" not in html
