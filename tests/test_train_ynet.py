@@ -6,9 +6,10 @@ import torch
 
 from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, evaluate, load_model,
                                     sampling_options)
-from pipeline.train_ynet import YnetSettings, scale_waypoints, train
+from pipeline.train_ynet import YnetSettings, run_fingerprint, scale_waypoints, train
 from pipeline.window_table import WindowArrays
 from pipeline.ynet_data import group_by_scene
+from ynet.heatmaps import upstream_max_distance
 
 N_PAST, N_FUTURE = 3, 4
 
@@ -107,9 +108,6 @@ def test_waypoints_scale_with_the_horizon(n_future, expected):
 
 
 def test_distance_gain_steepens_the_upstream_maps_and_defaults_keep_old_fingerprints():
-    from pipeline.train_ynet import run_fingerprint
-    from ynet.heatmaps import upstream_max_distance
-
     plain = YnetSettings(resize=0.0625)
     steep = YnetSettings(resize=0.0625, distance_gain=8.0)
     assert plain.max_distance == pytest.approx(upstream_max_distance(0.0625))
