@@ -27,7 +27,8 @@ from pipeline.params import load_profile, load_section, read_params
 from pipeline.semantic_maps import load_semantic_maps
 from pipeline.train_ynet import YnetSettings, image_sizes
 from pipeline.window_table import to_arrays
-from pipeline.ynet_data import SceneWindows, group_by_scene, model_input, padded_semantic
+from pipeline.ynet_data import (SceneWindows, group_by_scene, model_input, padded_semantic,
+                                window_inputs)
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
 from ynet.sampling import SamplingOptions, predict
@@ -101,23 +102,33 @@ def load_model(path: Path) -> tuple[YNet, YnetSettings]:
 
 def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
                    options: SamplingOptions, seed: int, params: EvalParams,
-                   n_windows: int, desc: str) -> tuple[np.ndarray, np.ndarray]:
-    """Paths (N, K, n_f, 2) and goals (N, K, 2) in original pixels, rows as in the arrays."""
+                   n_windows: int, desc: str, crop: int = 0,
+                   crop_lead_steps: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Paths (N, K, n_f, 2) and goals (N, K, 2) in original pixels, rows as in the arrays.
+
+    crop > 0 runs the model on a crop x crop window ahead of each agent instead of the whole map
+    (`ynet_data.window_inputs`): short-term futures stay near the agent.
+    """
     generator = torch.Generator().manual_seed(seed)
     n_future = scenes[0].future.shape[1]
     paths = np.zeros((n_windows, options.K, n_future, 2))
     goals = np.zeros((n_windows, options.K, 2))
     with tqdm(total=n_windows, desc=desc, leave=False, disable=None) as progress:
         for scene in scenes:
-            semantic = padded_semantic(scene.semantic, PAD_CLASS)
+            semantic = padded_semantic(scene.semantic, PAD_CLASS) if crop == 0 else None
             for start in range(0, len(scene), params.batch_size):
                 past = scene.past[start:start + params.batch_size]
-                inputs = model_input(semantic, past, settings.max_distance)
-                out = predict(model, inputs, past[:, -1], options, generator,
+                if crop == 0:
+                    inputs = model_input(semantic, past, settings.max_distance)
+                    origin = torch.zeros(len(past), 2)
+                else:
+                    inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
+                                                   crop, PAD_CLASS, crop_lead_steps)  # (B, 2)
+                out = predict(model, inputs, past[:, -1] - origin, options, generator,
                               settings.max_distance, params.chunk_size, params.bf16)
                 rows = scene.index[start:start + params.batch_size]
-                paths[rows] = out.trajectory.numpy() / settings.resize
-                goals[rows] = out.goals.numpy() / settings.resize
+                paths[rows] = (out.trajectory + origin[:, None, None]).numpy() / settings.resize
+                goals[rows] = (out.goals + origin[:, None]).numpy() / settings.resize
                 progress.update(len(rows))
     return paths, goals
 

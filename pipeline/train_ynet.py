@@ -30,8 +30,9 @@ from pipeline.metrics import ade_fde
 from pipeline.params import load_profile, read_params
 from pipeline.semantic_maps import load_semantic_maps
 from pipeline.window_table import WindowArrays, to_arrays
-from pipeline.ynet_data import (AUGMENTATIONS, SceneWindows, augment, group_by_scene,
-                                model_input, padded_semantic, training_batch)
+from pipeline.ynet_data import (AUGMENTATIONS, SceneWindows, augment, cropped_training_batch,
+                                group_by_scene, model_input, padded_semantic, training_batch,
+                                window_inputs)
 from ynet.heatmaps import distance_maps, upstream_max_distance
 from ynet.loss import ynet_loss
 from ynet.model import YNet, YNetConfig
@@ -80,6 +81,12 @@ class YnetSettings:
     head_bias: float | None = None
     """Initial bias of the decoders' output logits (see `ynet.model.YNetConfig.head_bias`);
     None = PyTorch's default, as the authors."""
+    crop: int = 0
+    """0: the model sees whole scenes (the authors). > 0 (a multiple of 32): a crop x crop window
+    around each agent in training, validation and scoring (`ynet_data.window_inputs`); short
+    horizons whose futures stay near the agent then cost a fraction of the pixels."""
+    crop_lead_steps: float = 0.0
+    """The crop is centred this many steps of the agent's last observed velocity ahead of it."""
 
     def __post_init__(self):
         if not 0 < self.resize <= 1:
@@ -94,6 +101,9 @@ class YnetSettings:
             raise ValueError("epochs, batch_size and semantic_classes must be positive")
         if self.steps_per_epoch < 0:
             raise ValueError("steps_per_epoch must be >= 0 (0 = every batch)")
+        if self.crop < 0 or self.crop % 32 or (self.crop and self.distance_norm == "map"):
+            raise ValueError(f"crop must be 0 or a multiple of 32, with distance_norm 'upstream' "
+                             f"(crops need distance maps of a fixed scale), got {self.crop}")
 
     def model_config(self, n_past: int, n_future: int) -> YNetConfig:
         return YNetConfig(obs_len=n_past, pred_len=n_future, semantic_classes=self.semantic_classes,
@@ -139,17 +149,23 @@ def seed_everything(seed: int) -> None:
 def deterministic_predict(model: YNet, scene: SceneWindows, settings: YnetSettings,
                           batch_size: int) -> tuple[np.ndarray, np.ndarray]:
     """Softargmax waypoints -> one path per window; returns (paths, goals) in resized pixels."""
-    semantic = padded_semantic(scene.semantic, PAD_CLASS)
-    height, width = semantic.shape[-2:]
+    semantic = padded_semantic(scene.semantic, PAD_CLASS) if not settings.crop else None
     paths, goals = [], []
     for start in range(0, len(scene), batch_size):
         past = scene.past[start:start + batch_size]
-        features = model.encode(model_input(semantic, past, settings.max_distance))
+        if settings.crop:
+            inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
+                                           settings.crop, PAD_CLASS, settings.crop_lead_steps)
+        else:
+            inputs, origin = model_input(semantic, past, settings.max_distance), torch.zeros(2)
+        height, width = inputs.shape[-2:]
+        features = model.encode(inputs)
         waypoint_logits = model.predict_goals(features)[:, list(model.config.waypoints)]
         waypoints = softargmax(waypoint_logits)  # (B, n_w, 2)
         maps = distance_maps(waypoints, height, width, settings.max_distance)
-        paths.append(softargmax(model.predict_trajectory(features, maps)))  # (B, n_f, 2)
-        goals.append(waypoints[:, -1])
+        path = softargmax(model.predict_trajectory(features, maps))  # (B, n_f, 2)
+        paths.append(path + origin[..., None, :])
+        goals.append(waypoints[:, -1] + origin)
     return torch.cat(paths).numpy(), torch.cat(goals).numpy()
 
 
@@ -196,9 +212,15 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
             scene = augment(scenes[s], turns, flip)
             augmented[key] = (scene, padded_semantic(scene.semantic, PAD_CLASS))
         scene, semantic = augmented[key]
-        batch = training_batch(semantic, scene.past[rows], scene.future[rows],
-                               tuple(settings.waypoints), settings.max_distance,
-                               settings.kernel_size, settings.sigma)
+        if settings.crop:
+            batch = cropped_training_batch(
+                scene.semantic, scene.past[rows], scene.future[rows], tuple(settings.waypoints),
+                settings.max_distance, settings.kernel_size, settings.sigma, settings.crop,
+                settings.crop_lead_steps, PAD_CLASS)
+        else:
+            batch = training_batch(semantic, scene.past[rows], scene.future[rows],
+                                   tuple(settings.waypoints), settings.max_distance,
+                                   settings.kernel_size, settings.sigma)
         goal_logits, trajectory_logits = model(batch.inputs, batch.waypoint_maps)
         loss = ynet_loss(goal_logits, trajectory_logits, batch.target, settings.loss_scale).total
         optimizer.zero_grad(set_to_none=True)
@@ -212,7 +234,7 @@ RESUMABLE_SETTINGS = ("epochs", "threads")  # may change between an interrupted 
 # Settings added after checkpoints existed: left out of the fingerprint at their defaults, so those
 # checkpoints still resume.
 ADDED_SETTINGS = {"semantic_classes": 6, "steps_per_epoch": 0, "head_bias": None,
-                  "distance_gain": 1.0}
+                  "distance_gain": 1.0, "crop": 0, "crop_lead_steps": 0.0}
 
 
 def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str, np.ndarray],

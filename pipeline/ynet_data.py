@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 import torch
+import torch.nn.functional as F
 
 from pipeline.window_table import WindowArrays
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, pad_to_multiple
@@ -116,6 +117,51 @@ def model_input(semantic_padded: torch.Tensor, past: torch.Tensor,
     return torch.cat([scene, past_maps], dim=1)
 
 
+def agent_crops(semantic: torch.Tensor, centres: torch.Tensor, size: int,
+                padding_class: int | None) -> tuple[torch.Tensor, torch.Tensor]:
+    """Square windows of an unpadded map centred on each agent: why evaluation can skip most pixels.
+
+    semantic (C, H, W), centres (B, 2) as (x, y) -> crops (B, C, size, size) and origins (B, 2), the
+    (x, y) of each crop's pixel [0, 0] in the map (crop position = map position - origin). Pixels
+    beyond the map belong to `padding_class`, as in `padded_semantic`.
+    """
+    channels, height, width = semantic.shape
+    half = size // 2
+    padded = F.pad(semantic, (half, size, half, size))  # (C, H + half + size, W + half + size)
+    if padding_class is not None:
+        outside = torch.ones(padded.shape[-2:], dtype=torch.bool)
+        outside[half:half + height, half:half + width] = False
+        padded[padding_class][outside] = 1.0
+    origin = torch.round(centres).long() - half  # (B, 2)
+    origin[:, 0].clamp_(-half, width)  # every crop stays inside the padded map
+    origin[:, 1].clamp_(-half, height)
+    crops = torch.stack([padded[:, y + half:y + half + size, x + half:x + half + size]
+                         for x, y in origin.tolist()])
+    return crops, origin.to(centres.dtype)
+
+
+def window_inputs(semantic: torch.Tensor, past: torch.Tensor, max_distance: float | None,
+                  crop: int, padding_class: int | None,
+                  lead_steps: float = 0.0) -> tuple[torch.Tensor, torch.Tensor]:
+    """Model inputs (B, C + n_p, H', W') for windows of one scene and the origin (B, 2) to add back.
+
+    crop = 0: the whole map padded to multiples of 32, origin 0. crop > 0 (a multiple of 32): a
+    crop x crop window centred `lead_steps` steps of the last observed velocity ahead of each agent
+    (where its future lies; past positions off the crop still shape its distance maps). The
+    distance maps equal the whole map's, cut the same way, which needs a fixed `max_distance`.
+    """
+    if crop == 0:
+        inputs = model_input(padded_semantic(semantic, padding_class), past, max_distance)
+        return inputs, torch.zeros(len(past), 2, dtype=past.dtype)
+    if crop % 32 or max_distance is None:
+        raise ValueError(f"crops need a side that is a multiple of 32 and a fixed max_distance, got "
+                         f"crop {crop} and max_distance {max_distance}")
+    centres = past[:, -1] + lead_steps * (past[:, -1] - past[:, -2])  # (B, 2)
+    crops, origin = agent_crops(semantic, centres, crop, padding_class)
+    past_maps = distance_maps(past - origin[:, None], crop, crop, max_distance)  # (B, n_p, S, S)
+    return torch.cat([crops, past_maps], dim=1), origin
+
+
 @dataclass(frozen=True)
 class TrainingBatch:
     inputs: torch.Tensor  # (B, C + n_p, H, W)
@@ -135,4 +181,22 @@ def training_batch(semantic_padded: torch.Tensor, past: torch.Tensor, future: to
         inputs=model_input(semantic_padded, past, max_distance),
         waypoint_maps=distance_maps(future[:, list(waypoints)], height, width, max_distance),
         target=gaussian_heatmaps(future, height, width, kernel_size, sigma),
+    )
+
+
+def cropped_training_batch(semantic: torch.Tensor, past: torch.Tensor, future: torch.Tensor,
+                           waypoints: tuple[int, ...], max_distance: float, kernel_size: int,
+                           sigma: float, crop: int, lead_steps: float,
+                           padding_class: int | None) -> TrainingBatch:
+    """`training_batch` on a crop x crop window per agent (`window_inputs`) of the unpadded map.
+
+    Future positions are moved into each crop; a Gaussian target reaching beyond it is cut off
+    there, as at the map's border.
+    """
+    inputs, origin = window_inputs(semantic, past, max_distance, crop, padding_class, lead_steps)
+    future = future - origin[:, None]  # (B, n_f, 2) crop pixels
+    return TrainingBatch(
+        inputs=inputs,
+        waypoint_maps=distance_maps(future[:, list(waypoints)], crop, crop, max_distance),
+        target=gaussian_heatmaps(future, crop, crop, kernel_size, sigma),
     )

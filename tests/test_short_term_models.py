@@ -112,12 +112,13 @@ def tiny_params() -> dict:
     real = read_params(REPO / "params.yaml")
     ynet = {**real["ynet"]["cpu"], "batch_size": 2, "learning_rate": 1e-3, "augmentations": 2,
             "encoder_channels": [4, 4, 8, 8, 8], "decoder_channels": [8, 8, 8, 4, 4], "threads": 1,
-            "distance_norm": "map", "distance_gain": 1.0}
+            "distance_norm": "upstream", "distance_gain": 1.0}
     short = {**real["short_term_models"]["cpu"],
              "epochs": {m: {"sdd": 2, "ethucy": 2} for m in ("ynet", "sgan", "pecnet")},
              "ynet_steps_per_epoch": 3, "val_windows": 3, "rounds": 2,
              "ynet_sdd": {"resize": 0.25, "kernel_size": 5, "sigma": 1.0},
-             "ynet_ethucy": {"resize": 0.25, "kernel_size": 5, "sigma": 1.0},
+             "ynet_ethucy": {"resize": 0.25, "kernel_size": 5, "sigma": 1.0, "crop": 32,
+                             "crop_lead_steps": 2.0},  # whole scenes on sdd, crops on eth
              "ynet_datasets": ["sdd", "eth"], "why_subset": "tiny test"}
     sgan = {**real["sgan"]["cpu"], "batch_size": 8, "pool_hidden": 16, "best_of_k": 2, "val_k": 2}
     pecnet = {**real["pecnet"]["cpu"], "batch_size": 8, "past_hidden": [16], "decoder_hidden": [16],

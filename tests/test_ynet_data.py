@@ -3,8 +3,9 @@ import pytest
 import torch
 
 from pipeline.window_table import WindowArrays
-from pipeline.ynet_data import (AUGMENTATIONS, SceneWindows, augment, group_by_scene,
-                                padded_semantic, training_batch)
+from pipeline.ynet_data import (AUGMENTATIONS, SceneWindows, agent_crops, augment,
+                                cropped_training_batch, group_by_scene, model_input,
+                                padded_semantic, training_batch, window_inputs)
 
 
 def scene_with_marker(x: int, y: int, height: int = 5, width: int = 7) -> SceneWindows:
@@ -58,3 +59,43 @@ def test_padding_class_fills_padded_pixels_and_batch_shapes():
     assert tuple(batch.waypoint_maps.shape) == (1, 2, 64, 64)
     assert tuple(batch.target.shape) == (1, 3, 64, 64)
     assert batch.waypoint_maps[0, 1, 14, 18] == 0.0  # goal (18, 14): zero distance at its pixel
+
+
+def test_agent_crops_cut_the_map_around_each_centre_and_pad_outside():
+    semantic = torch.zeros(2, 40, 50)
+    semantic[1] = torch.arange(40 * 50, dtype=torch.float32).view(40, 50)
+    crops, origin = agent_crops(semantic, torch.tensor([[20.0, 10.0], [1.0, 38.6]]), 32,
+                                padding_class=0)
+    assert tuple(crops.shape) == (2, 2, 32, 32)
+    assert origin.tolist() == [[4.0, -6.0], [-15.0, 23.0]]
+    # map pixel (row y, column x) sits at crop pixel (y - origin_y, x - origin_x)
+    torch.testing.assert_close(crops[0, 1, 6:, :], semantic[1, :26, 4:36])
+    assert crops[0, 0, :6].min() == 1.0 and crops[0, 0, 6:].max() == 0.0  # rows above the map
+    assert crops[1, 0, :17, 15:].max() == 0.0 and crops[1, 0, 17:].min() == 1.0  # below the map
+    assert crops[1, 0, :, :15].min() == 1.0  # left of the map
+
+
+def test_cropped_inputs_equal_the_whole_maps_cut_the_same_way():
+    semantic = torch.rand(3, 70, 90)
+    past = torch.tensor([[[30.0, 40.0], [33.0, 41.0]], [[80.0, 5.0], [86.0, 2.0]]])
+    whole = model_input(padded_semantic(semantic, 0), past, max_distance=50.0)
+    cropped, origin = window_inputs(semantic, past, 50.0, crop=32, padding_class=0, lead_steps=2)
+    assert origin[0].tolist() == [23.0, 27.0]  # centre (33, 41) + 2 * (3, 1), minus 16
+    for b, (x0, y0) in enumerate(origin.long().tolist()):
+        rows, cols = slice(max(y0, 0), y0 + 32), slice(max(x0, 0), min(x0 + 32, 90))
+        inside = cropped[b][:, rows.start - y0:rows.stop - y0, cols.start - x0:cols.stop - x0]
+        torch.testing.assert_close(inside, whole[b][:, rows, cols])
+    with pytest.raises(ValueError, match="multiple of 32"):
+        window_inputs(semantic, past, None, crop=32, padding_class=0)
+
+
+def test_cropped_training_batch_is_the_whole_batch_cut_around_the_agent():
+    semantic = torch.rand(3, 70, 90)
+    past = torch.tensor([[[30.0, 40.0], [33.0, 41.0]]])
+    future = torch.tensor([[[36.0, 42.0], [39.0, 43.0], [42.0, 44.0]]])
+    whole = training_batch(padded_semantic(semantic, 0), past, future, (1, 2), 50.0, 7, 1.0)
+    cropped = cropped_training_batch(semantic, past, future, (1, 2), 50.0, 7, 1.0, crop=32,
+                                     lead_steps=2.0, padding_class=0)
+    cut = (slice(None), slice(None), slice(27, 59), slice(23, 55))  # origin (23, 27)
+    for name in ("inputs", "waypoint_maps", "target"):
+        torch.testing.assert_close(getattr(cropped, name), getattr(whole, name)[cut])

@@ -85,6 +85,38 @@ def test_kmeans_converges_to_lloyd_fixed_points_and_finds_separated_clusters():
     assert found.all()
 
 
+def plain_kmeans(points, k, generator, max_iter=1000, tol=1e-3):
+    """Lloyd's k-means over every point (duplicates included), the algorithm `kmeans` must equal."""
+    n, p, _ = points.shape
+    first = torch.rand(n, p, generator=generator).argsort(dim=-1)[:, :k]
+    centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))
+    active = torch.ones(n, dtype=torch.bool)
+    for _ in range(max_iter):
+        owner = torch.cdist(points, centres).argmin(-1)  # (N, P)
+        new = torch.stack([torch.stack([points[b][owner[b] == c].mean(0) if (owner[b] == c).any()
+                                        else torch.full((2,), float("nan")) for c in range(k)])
+                           for b in range(n)])
+        empty = new.isnan().any(-1)
+        if empty.any():
+            restart = torch.randint(p, (n, k), generator=generator)
+            restart = torch.gather(points, 1, restart[..., None].expand(n, k, 2))
+            new = torch.where(empty[..., None], restart, new)
+        shift = (new - centres).square().sum(-1).sqrt().sum(-1)
+        centres = torch.where(active[:, None, None], new, centres)
+        active &= shift.square() >= tol
+        if not active.any():
+            break
+    return centres
+
+
+def test_kmeans_on_distinct_weighted_points_equals_the_plain_algorithm():
+    prob = torch.rand(3, 24, 20) ** 8  # peaky maps: many repeated pixels, as TTST draws them
+    prob[2, 5:] = 0.0  # one set with few distinct pixels
+    points = sample_positions(prob, 2000, gen(3), rel_threshold=0.01)  # (3, 2000, 2)
+    for k in (4, 19):
+        assert torch.equal(kmeans(points, k, gen(k)), plain_kmeans(points, k, gen(k)))
+
+
 def test_kmeans_restarts_empty_clusters():
     points = torch.tensor([[[0.0, 0.0]] * 50 + [[10.0, 10.0]] * 50])  # two distinct points only
     centres = kmeans(points, 4, gen(0))

@@ -120,6 +120,21 @@ def sample_positions(
     return xy.to(prob.dtype).reshape(*prob.shape[:-2], num_samples, 2)
 
 
+def distinct_points(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Each set's distinct points and how often each occurs: (N, P, 2) -> (N, U, 2), (N, U).
+
+    Sets with fewer than U distinct points are padded with weight-0 copies of their first point.
+    """
+    rows = [torch.unique(row, dim=0, return_counts=True) for row in points]
+    size = max(len(u) for u, _ in rows)
+    unique = points[:, :1].repeat(1, size, 1)  # (N, U, 2)
+    weights = torch.zeros(len(rows), size, dtype=points.dtype)  # (N, U)
+    for i, (u, counts) in enumerate(rows):
+        unique[i, :len(u)] = u
+        weights[i, :len(u)] = counts.to(points.dtype)
+    return unique, weights
+
+
 def kmeans(
     points: torch.Tensor,
     k: int,
@@ -132,16 +147,22 @@ def kmeans(
     Like kmeans_pytorch (the authors' choice): initial centres are k distinct random points of each
     set; a cluster that empties restarts at a random point; a set stops updating once the squared sum
     of its centres' moves drops below `tol`.
+
+    TTST's points are pixels drawn with replacement, so a set of 10,000 holds a few hundred distinct
+    ones: the iterations run on those, weighted by their counts. Random draws still index the full
+    sets, so the centres are the ones the plain algorithm finds (bit-identical for whole-number
+    points, whose sums are exact in float32).
     """
     n, p, _ = points.shape
     first = torch.rand(n, p, generator=generator).argsort(dim=-1)[:, :k]  # (N, k) distinct indices
     centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))  # (N, k, 2)
+    unique, weights = distinct_points(points)  # (N, U, 2), (N, U)
     active = torch.ones(n, dtype=torch.bool)
     for _ in range(max_iter):
-        dist = torch.cdist(points, centres, compute_mode="donot_use_mm_for_euclid_dist")  # (N, P, k)
-        onehot = F.one_hot(dist.argmin(-1), k).to(points.dtype)  # (N, P, k)
-        counts = onehot.sum(1)  # (N, k)
-        new = onehot.transpose(1, 2) @ points / counts.clamp_min(1)[..., None]  # (N, k, 2)
+        dist = torch.cdist(unique, centres, compute_mode="donot_use_mm_for_euclid_dist")  # (N, U, k)
+        owned = F.one_hot(dist.argmin(-1), k).to(points.dtype) * weights[..., None]  # (N, U, k)
+        counts = owned.sum(1)  # (N, k)
+        new = owned.transpose(1, 2) @ unique / counts.clamp_min(1)[..., None]  # (N, k, 2)
         empty = counts == 0
         if empty.any():
             restart = torch.randint(p, (n, k), generator=generator)
