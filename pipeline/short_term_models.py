@@ -112,6 +112,8 @@ class ShortTermModelsParams:
     """Model (ynet, sgan, pecnet) -> benchmark (sdd, ethucy: each fold) -> training epochs."""
     ynet_steps_per_epoch: int
     """Y-net optimiser steps per epoch, about (windows drawn afresh each epoch); 0 = every window."""
+    ynet_learning_rate: float | None
+    """Y-net's Adam learning rate here; None = `ynet.<profile>`'s (the long-term model's)."""
     val_windows: int
     """Validation windows that select the epoch (a fixed seeded sample); 0 = all of them."""
     ynet_sdd: YnetScale
@@ -146,6 +148,8 @@ class ShortTermModelsParams:
                              f"each of {list(BENCHMARKS)}, got {self.epochs}")
         if self.ynet_steps_per_epoch < 0 or self.val_windows < 0:
             raise ValueError("ynet_steps_per_epoch and val_windows must be >= 0 (0 = all)")
+        if self.ynet_learning_rate is not None and self.ynet_learning_rate <= 0:
+            raise ValueError(f"ynet_learning_rate must be positive or null, got {self.ynet_learning_rate}")
         unknown = sorted(set(self.ynet_datasets) - set(DATASETS))
         if unknown:
             raise ValueError(f"ynet_datasets: unknown dataset(s) {unknown}; known: {list(DATASETS)}")
@@ -168,11 +172,13 @@ class ShortTermModelsParams:
 
 def ynet_settings(base: YnetSettings, params: ShortTermModelsParams, dataset: str, n_future: int,
                   semantic_classes: int) -> YnetSettings:
-    """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale and epochs."""
+    """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale, epochs and
+    (if set) learning rate."""
     scale = params.ynet_sdd if dataset == "sdd" else params.ynet_ethucy
+    learning_rate = params.ynet_learning_rate or base.learning_rate
     return YnetSettings(**{
         **asdict(base), **asdict(scale), "waypoints": [n_future - 1],
-        "epochs": params.epochs["ynet"][benchmark_of(dataset)],
+        "epochs": params.epochs["ynet"][benchmark_of(dataset)], "learning_rate": learning_rate,
         "semantic_classes": semantic_classes, "steps_per_epoch": params.ynet_steps_per_epoch})
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -27,7 +28,7 @@ from pipeline.semantic_maps import quantise
 from pipeline.short_term import EthUcySceneInfo, load_ethucy_scenes
 from pipeline.baselines.common import subset
 from pipeline.short_term_models import (DATASETS, ShortTermModelsParams,
-                                        load_benchmark, main, to_metres)
+                                        load_benchmark, main, to_metres, ynet_settings)
 from pipeline.short_term_tables import main as tables_main
 from pipeline.train_ynet import YnetSettings, train
 from pipeline.window_table import WindowArrays
@@ -188,6 +189,17 @@ def test_ynet_runs_the_short_term_configuration(project):
     assert record["waypoints"] == [N_FUTURE - 1] and record["semantic_classes"] == 3
     assert record["resize"] == 0.25 and record["steps_per_epoch"] == 3
     assert run_record(project, "sdd_ynet")["train"]["settings"]["semantic_classes"] == 6
+
+
+def test_ynet_learning_rate_overrides_the_long_term_models_only_when_set():
+    params = read_params(REPO / "params.yaml")
+    short = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "cpu"})
+    base = YnetSettings(learning_rate=3e-4)
+    for rate, expected in ((2e-3, 2e-3), (None, 3e-4)):
+        settings = ynet_settings(base, replace(short, ynet_learning_rate=rate), "eth", N_FUTURE, 3)
+        assert settings.learning_rate == expected and settings.waypoints == [N_FUTURE - 1]
+    with pytest.raises(ValueError, match="ynet_learning_rate"):
+        replace(short, ynet_learning_rate=0.0)
 
 
 def test_smaller_k_is_never_better(project):

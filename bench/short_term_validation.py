@@ -1,0 +1,75 @@
+"""A trained short-term Y-net and a fixed sample of its benchmark's validation windows, for benches.
+
+Shared by `bench_short_term_crop.py` and `bench_short_term_steps.py` (not a bench itself: `make
+bench` runs `bench_*.py` only). Validation windows only: benches never look at the test set.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+import torch
+
+from pipeline.evaluate_ynet import load_model
+from pipeline.params import load_profile, load_section, read_params
+from pipeline.semantic_maps import load_semantic_maps
+from pipeline.short_term import ShortTermParams, load_ethucy_scenes
+from pipeline.short_term_models import (ETHUCY_SCENES, ShortTermModelsParams, load_benchmark,
+                                        sample_windows, table_path)
+from pipeline.train_ynet import YnetSettings, image_sizes
+from pipeline.window_table import WindowArrays
+from pipeline.ynet_data import SceneWindows, group_by_scene
+from ynet.model import YNet
+
+
+@dataclass
+class TrainedOnValidation:
+    model: YNet
+    settings: YnetSettings  # the checkpoint's (resize, crop, distance scale)
+    stage: ShortTermModelsParams  # short_term_models.<profile>
+    val: WindowArrays  # original pixels
+    scenes: list[SceneWindows]  # val grouped by scene, in the checkpoint's resized pixels
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options every short-term Y-net bench takes."""
+    parser.add_argument("--dataset", default="sdd")
+    parser.add_argument("--windows", type=Path, default=Path("data/short_term"))
+    parser.add_argument("--sdd", type=Path, default=Path("data/raw/sdd"))
+    parser.add_argument("--checkpoint", type=Path,
+                        help="default: checkpoints/short_term/<dataset>_ynet/best.pt")
+    parser.add_argument("--windows-sample", type=int, default=300)
+
+
+def load_from_arguments(args: argparse.Namespace, bench: str) -> TrainedOnValidation | None:
+    """`load` as the options say; None (after saying what to run) when there is no checkpoint."""
+    checkpoint = args.checkpoint or Path(f"checkpoints/short_term/{args.dataset}_ynet/best.pt")
+    if not checkpoint.exists():
+        print(f"{bench}: no checkpoint at {checkpoint}; run "
+              f"`dvc repro short_term_ynet@{args.dataset}` first")
+        return None
+    return load(args.dataset, checkpoint, args.windows, args.sdd, args.windows_sample)
+
+
+def load(dataset: str, checkpoint: Path, windows: Path, sdd: Path, sample: int) -> TrainedOnValidation:
+    """The checkpoint's model (threads as trained) and `sample` seeded validation windows."""
+    params = read_params()
+    stage = load_profile(ShortTermModelsParams, "short_term_models", params)
+    lengths = load_section(ShortTermParams, "short_term", params)
+    scenes_info = None if dataset == "sdd" else load_ethucy_scenes(windows / ETHUCY_SCENES)
+    bench = load_benchmark(pd.read_parquet(table_path(windows, dataset)), dataset,
+                           lengths.n_past, lengths.n_future, scenes_info)
+    val = sample_windows(bench.val, sample, stage.seed)
+    model, settings = load_model(checkpoint)
+    torch.set_num_threads(settings.threads)
+    if scenes_info is None:
+        maps = load_semantic_maps(Path("data/semantic_maps"))
+        sizes = image_sizes(sdd, set(val.scene_id))
+    else:
+        maps = load_semantic_maps(windows / ETHUCY_SCENES)
+        sizes = {name: info.image_hw for name, info in scenes_info.items()}
+    return TrainedOnValidation(model, settings, stage, val,
+                               group_by_scene(val, maps, sizes, settings.resize))
