@@ -20,7 +20,7 @@ import torch
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_steps.py`
 from pipeline.evaluate_ynet import PAD_CLASS
-from pipeline.ynet_data import model_input, padded_semantic, window_inputs
+from pipeline.ynet_data import window_inputs
 from ynet.heatmaps import distance_maps
 from ynet.sampling import softargmax
 
@@ -39,15 +39,11 @@ def step_errors(trained: short_term_validation.TrainedOnValidation,
     goal_step = list(model.config.waypoints)
     out = {"own goal": [], "true goal": [], "constant velocity": [], "softmax peak": []}
     for scene in trained.scenes:
-        semantic = padded_semantic(scene.semantic, PAD_CLASS) if not settings.crop else None
         for start in range(0, len(scene), batch_size):
             past, future = scene.past[start:start + batch_size], scene.future[start:start + batch_size]
-            if settings.crop:
-                inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
-                                               settings.crop, PAD_CLASS, settings.crop_lead_steps)
-            else:
-                inputs, origin = model_input(semantic, past, settings.max_distance), torch.zeros(2)
-            origin = origin.reshape(-1, 1, 2)  # (B or 1, 1, 2) map -> crop pixels
+            inputs, origin = window_inputs(scene.semantic, past, settings.max_distance, settings.crop,
+                                           PAD_CLASS, settings.crop_lead_steps)
+            origin = origin[:, None]  # (B, 1, 2): map pixels -> model-input pixels
             height, width = inputs.shape[-2:]
             features = model.encode(inputs)
             own = softargmax(model.predict_goals(features)[:, goal_step])  # (B, n_w, 2) crop pixels

@@ -115,15 +115,10 @@ def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettin
     goals = np.zeros((n_windows, options.K, 2))
     with tqdm(total=n_windows, desc=desc, leave=False, disable=None) as progress:
         for scene in scenes:
-            semantic = padded_semantic(scene.semantic, PAD_CLASS) if crop == 0 else None
             for start in range(0, len(scene), params.batch_size):
                 past = scene.past[start:start + params.batch_size]
-                if crop == 0:
-                    inputs = model_input(semantic, past, settings.max_distance)
-                    origin = torch.zeros(len(past), 2)
-                else:
-                    inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
-                                                   crop, PAD_CLASS, crop_lead_steps)  # (B, 2)
+                inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
+                                               crop, PAD_CLASS, crop_lead_steps)  # origin (B, 2)
                 out = predict(model, inputs, past[:, -1] - origin, options, generator,
                               settings.max_distance, params.chunk_size, params.bf16)
                 rows = scene.index[start:start + params.batch_size]

@@ -175,7 +175,8 @@ def ynet_settings(base: YnetSettings, params: ShortTermModelsParams, dataset: st
     """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale, epochs and
     (if set) learning rate."""
     scale = params.ynet_sdd if dataset == "sdd" else params.ynet_ethucy
-    learning_rate = params.ynet_learning_rate or base.learning_rate
+    learning_rate = (base.learning_rate if params.ynet_learning_rate is None
+                     else params.ynet_learning_rate)
     return YnetSettings(**{
         **asdict(base), **asdict(scale), "waypoints": [n_future - 1],
         "epochs": params.epochs["ynet"][benchmark_of(dataset)], "learning_rate": learning_rate,
@@ -271,9 +272,8 @@ def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None]], bench: 
 # Y-net
 
 
-def run_ynet(bench: Benchmark, dataset: str, semantic_maps, sizes, settings: YnetSettings,
-             n_past: int, folder: Path, params: ShortTermModelsParams,
-             ks: list[int]) -> tuple[dict, dict[int, dict]]:
+def run_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n_past: int,
+             folder: Path, params: ShortTermModelsParams, ks: list[int]) -> tuple[dict, dict[int, dict]]:
     """Train (or resume) Y-net, then score its best epoch at every K_e of `ks`."""
     val = sample_windows(bench.val, params.val_windows, params.seed)
     facts = train(bench.train, val, semantic_maps, sizes, settings, n_past, folder / "last.pt",
@@ -379,7 +379,7 @@ def main(argv: list[str] | None = None) -> None:
             raise ValueError(f"{args.maps}: maps of different channel counts {sorted(classes)}")
         model_settings = ynet_settings(load_profile(YnetSettings, "ynet", params), settings,
                                        args.dataset, windows.n_future, classes.pop())
-        facts, results = run_ynet(bench, args.dataset, maps, sizes, model_settings, windows.n_past,
+        facts, results = run_ynet(bench, maps, sizes, model_settings, windows.n_past,
                                   args.checkpoint_dir, settings, ks)
     else:
         seeds = load_section(TrainBaselineParams, "train_baseline", params)

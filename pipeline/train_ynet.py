@@ -31,8 +31,7 @@ from pipeline.params import load_profile, read_params
 from pipeline.semantic_maps import load_semantic_maps
 from pipeline.window_table import WindowArrays, to_arrays
 from pipeline.ynet_data import (AUGMENTATIONS, SceneWindows, augment, cropped_training_batch,
-                                group_by_scene, model_input, padded_semantic, training_batch,
-                                window_inputs)
+                                group_by_scene, padded_semantic, training_batch, window_inputs)
 from ynet.heatmaps import distance_maps, upstream_max_distance
 from ynet.loss import ynet_loss
 from ynet.model import YNet, YNetConfig
@@ -149,22 +148,18 @@ def seed_everything(seed: int) -> None:
 def deterministic_predict(model: YNet, scene: SceneWindows, settings: YnetSettings,
                           batch_size: int) -> tuple[np.ndarray, np.ndarray]:
     """Softargmax waypoints -> one path per window; returns (paths, goals) in resized pixels."""
-    semantic = padded_semantic(scene.semantic, PAD_CLASS) if not settings.crop else None
     paths, goals = [], []
     for start in range(0, len(scene), batch_size):
         past = scene.past[start:start + batch_size]
-        if settings.crop:
-            inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
-                                           settings.crop, PAD_CLASS, settings.crop_lead_steps)
-        else:
-            inputs, origin = model_input(semantic, past, settings.max_distance), torch.zeros(2)
+        inputs, origin = window_inputs(scene.semantic, past, settings.max_distance, settings.crop,
+                                       PAD_CLASS, settings.crop_lead_steps)  # origin (B, 2)
         height, width = inputs.shape[-2:]
         features = model.encode(inputs)
         waypoint_logits = model.predict_goals(features)[:, list(model.config.waypoints)]
         waypoints = softargmax(waypoint_logits)  # (B, n_w, 2)
         maps = distance_maps(waypoints, height, width, settings.max_distance)
         path = softargmax(model.predict_trajectory(features, maps))  # (B, n_f, 2)
-        paths.append(path + origin[..., None, :])
+        paths.append(path + origin[:, None])
         goals.append(waypoints[:, -1] + origin)
     return torch.cat(paths).numpy(), torch.cat(goals).numpy()
 
