@@ -23,8 +23,10 @@ import numpy as np
 import torch
 
 from pipeline import baselines
-from pipeline.baselines.common import (fit_result_from, load_checkpoint, load_windows, save_json_atomic,
+from pipeline.baselines.common import (CPU, fit_result_from, load_checkpoint, load_windows, save_json_atomic,
                                        select_split)
+from pipeline.device import RuntimeParams, describe, select_device
+from pipeline.device import generator as seeded_generator
 from pipeline.metrics import summarize, window_errors
 from pipeline.params import load_section, read_params
 from pipeline.window_table import WindowArrays
@@ -53,12 +55,13 @@ class EvaluateBaselineParams:
             raise ValueError(f"split must be train, val or test, got {self.split!r}")
 
 
-def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int) -> dict:
-    """Mean and std over rounds of the shared metric's summary, plus each round's summary."""
+def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device: torch.device = CPU) -> dict:
+    """Mean and std over rounds of the shared metric's summary, plus each round's summary; round r
+    samples from a generator on `device` (the model's) seeded with seed + r."""
     per_round = []
     t0 = time.perf_counter()
     for r in range(rounds):
-        pred = model.predict(arrays, k, torch.Generator().manual_seed(seed + r))  # (N, K, n_f, 2)
+        pred = model.predict(arrays, k, seeded_generator(device, seed + r))  # (N, K, n_f, 2)
         per_round.append(summarize(window_errors(pred, arrays.future)))
     seconds = time.perf_counter() - t0
     out = {key: float(np.mean([r[key] for r in per_round])) for key in METRIC_KEYS}
@@ -90,20 +93,23 @@ def main(argv: list[str] | None = None) -> None:
     all_params = read_params()
     params = load_section(EvaluateBaselineParams, "evaluate_baseline", all_params)
     n_past = load_section(WindowParams, "windows", all_params).n_past
+    runtime = load_section(RuntimeParams, "runtime", all_params)
     torch.set_num_threads(params.threads)
+    device = select_device(runtime.device)
+    print(f"evaluate_baseline {args.model} t_f = {args.horizon}: {describe(device)}", flush=True)
 
     cls = baselines.get(args.model)
     needs_checkpoint = args.model != "constant_velocity"
     if needs_checkpoint != (args.checkpoint_dir is not None):
         parser.error(f"--checkpoint-dir is {'required' if needs_checkpoint else 'not taken'} for {args.model}")
-    model = cls.load(args.checkpoint_dir)
+    model = cls.load(args.checkpoint_dir, device)
     arrays = select_split(load_windows(args.table, n_past, args.horizon), params.split)
     if len(arrays) == 0:
         raise ValueError(f"{args.table}: no {params.split} windows")
-    scores = evaluate(model, arrays, params.k, params.rounds, params.seed)
+    scores = evaluate(model, arrays, params.k, params.rounds, params.seed, device)
     save_json_atomic({"model": args.model, "horizon": args.horizon, "split": params.split,
-                      "seed": params.seed, **scores, **training_facts(args.model, args.checkpoint_dir)},
-                     args.metrics)
+                      "seed": params.seed, **scores,
+                      **training_facts(args.model, args.checkpoint_dir)}, args.metrics)
 
 
 if __name__ == "__main__":

@@ -17,18 +17,20 @@ from pathlib import Path
 import torch
 
 from pipeline import baselines
-from pipeline.baselines.common import load_windows, save_json_atomic, select_split
+from pipeline.baselines.common import CPU, load_windows, save_json_atomic, select_split
+from pipeline.device import RuntimeParams, describe, select_device
 from pipeline.evaluate_baseline import EvaluateBaselineParams, evaluate
 from pipeline.evaluate_ynet import EvalParams
 from pipeline.params import load_profile, load_section, read_params
 from pipeline.windows import WindowParams
 
 
-def ka_rows(model, arrays, k_as: list[int], k_per_ka: int, rounds: int, seed: int) -> list[dict]:
+def ka_rows(model, arrays, k_as: list[int], k_per_ka: int, rounds: int, seed: int,
+            device: torch.device = CPU) -> list[dict]:
     """One metrics row per K_a: best of K = k_per_ka x K_a samples (mean and std over rounds)."""
     rows = []
     for k_a in k_as:
-        scores = evaluate(model, arrays, k_per_ka * k_a, rounds, seed)
+        scores = evaluate(model, arrays, k_per_ka * k_a, rounds, seed, device)
         scores.pop("per_round")
         rows.append({"k_a": k_a, **scores})
     return rows
@@ -45,13 +47,16 @@ def main(argv: list[str] | None = None) -> None:
     params = load_section(EvaluateBaselineParams, "evaluate_baseline", all_params)
     k_as = sorted(set(load_profile(EvalParams, "eval", all_params).ka_grid_k_a))
     n_past = load_section(WindowParams, "windows", all_params).n_past
+    runtime = load_section(RuntimeParams, "runtime", all_params)
     torch.set_num_threads(params.threads)
+    device = select_device(runtime.device)
+    print(f"evaluate_pecnet_ka: {describe(device)}", flush=True)
 
-    model = baselines.get("pecnet").load(args.checkpoint_dir)
+    model = baselines.get("pecnet").load(args.checkpoint_dir, device)
     arrays = select_split(load_windows(args.table, n_past, args.horizon), params.split)
     if len(arrays) == 0:
         raise ValueError(f"{args.table}: no {params.split} windows")
-    rows = ka_rows(model, arrays, k_as, params.k, params.rounds, params.seed)
+    rows = ka_rows(model, arrays, k_as, params.k, params.rounds, params.seed, device)
     for row in rows:
         print(f"PECNet K_a = {row['k_a']} (K = {row['k']}): ADE {row['ade']:.2f}  FDE {row['fde']:.2f}")
     save_json_atomic(rows, args.metrics)

@@ -4,7 +4,9 @@ Separate from training, so `dvc exp run -S ttst.temperature=...` re-runs only th
 Writes ADE / FDE in original pixels as mean and spread over `eval.rounds` rounds, with the paper's
 independent minima and the joint ones; the Table 3 ablation (no TTST no CWS, CWS only, both); the
 K_e x K_a grid behind the paper's K_a figure; and three windows' heatmaps for the qualitative figure.
-Every round is seeded (`eval.seed + round`), so a fixed checkpoint gives bit-identical metrics.
+Every round is seeded (`eval.seed + round`), so a fixed checkpoint gives bit-identical metrics
+(on one CPU; on CUDA up to float rounding). Runs on `runtime.device`; on CUDA the trajectory decoder
+runs in bfloat16 (goals, and so FDE, stay float32).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import pandas as pd
 import torch
 from tqdm import tqdm
 
+from pipeline.device import RuntimeParams, conv_layout, describe, generator, select_device
 from pipeline.metrics import window_errors
 from pipeline.params import load_profile, load_section, read_params
 from pipeline.semantic_maps import load_semantic_maps
@@ -90,14 +93,19 @@ def sampling_options(k_e: int, k_a: int, ttst: TtstParams, cws: CwsParams, use_t
                            sigma_factor=cws.sigma_factor, ratio=cws.ratio, rot=cws.rot)
 
 
-def load_model(path: Path) -> tuple[YNet, YnetSettings]:
-    saved = torch.load(path, weights_only=True)
+def load_model(path: Path, device: torch.device = torch.device("cpu")) -> tuple[YNet, YnetSettings]:
+    """Weights saved by `train_ynet.train` (on any device), ready for inference on `device`."""
+    saved = torch.load(path, weights_only=True, map_location="cpu")
     config = YNetConfig(**{k: tuple(v) if isinstance(v, list) else v
                            for k, v in saved["config"].items()})
     model = YNet(config)
     model.load_state_dict(saved["model"])
     model.eval()
-    return model, YnetSettings(**saved["settings"])
+    return conv_layout(model, device), YnetSettings(**saved["settings"])
+
+
+def model_device(model: torch.nn.Module) -> torch.device:
+    return next(model.parameters()).device
 
 
 def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
@@ -107,23 +115,27 @@ def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettin
     """Paths (N, K, n_f, 2) and goals (N, K, 2) in original pixels, rows as in the arrays.
 
     crop > 0 runs the model on a crop x crop window ahead of each agent instead of the whole map
-    (`ynet_data.window_inputs`): short-term futures stay near the agent.
+    (`ynet_data.window_inputs`): short-term futures stay near the agent. Runs on the model's device
+    (scenes are moved there); on CUDA the trajectory decoder runs in bfloat16.
     """
-    generator = torch.Generator().manual_seed(seed)
+    device = model_device(model)
+    draws = generator(device, seed)
+    bf16 = params.bf16 or device.type == "cuda"
     n_future = scenes[0].future.shape[1]
     paths = np.zeros((n_windows, options.K, n_future, 2))
     goals = np.zeros((n_windows, options.K, 2))
     with tqdm(total=n_windows, desc=desc, leave=False, disable=None) as progress:
         for scene in scenes:
+            scene = scene.to(device)
             for start in range(0, len(scene), params.batch_size):
                 past = scene.past[start:start + params.batch_size]
                 inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
                                                crop, PAD_CLASS, crop_lead_steps)  # origin (B, 2)
-                out = predict(model, inputs, past[:, -1] - origin, options, generator,
-                              settings.max_distance, params.chunk_size, params.bf16)
+                out = predict(model, inputs, past[:, -1] - origin, options, draws,
+                              settings.max_distance, params.chunk_size, bf16)
                 rows = scene.index[start:start + params.batch_size]
-                paths[rows] = (out.trajectory + origin[:, None, None]).numpy() / settings.resize
-                goals[rows] = (out.goals + origin[:, None]).numpy() / settings.resize
+                paths[rows] = (out.trajectory + origin[:, None, None]).cpu().numpy() / settings.resize
+                goals[rows] = (out.goals + origin[:, None]).cpu().numpy() / settings.resize
                 progress.update(len(rows))
     return paths, goals
 
@@ -155,11 +167,13 @@ def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> d
 def qualitative(model: YNet, scene: SceneWindows, row: int, settings: YnetSettings,
                 options: SamplingOptions, image: np.ndarray, seed: int) -> dict[str, np.ndarray]:
     """Heatmaps and samples of one window, in the resized scene image's pixels."""
+    device = model_device(model)
+    scene = scene.to(device)
     semantic = padded_semantic(scene.semantic, PAD_CLASS)
     height, width = scene.semantic.shape[-2:]
     past = scene.past[row:row + 1]
     inputs = model_input(semantic, past, settings.max_distance)
-    out = predict(model, inputs, past[:, -1], options, torch.Generator().manual_seed(seed),
+    out = predict(model, inputs, past[:, -1], options, generator(device, seed),
                   settings.max_distance)
     features = model.encode(inputs)
     goal_logits = model.predict_goals(features)[0, -1]
@@ -169,11 +183,11 @@ def qualitative(model: YNet, scene: SceneWindows, row: int, settings: YnetSettin
     return {
         "scene_image": cv2.cvtColor(cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA),
                                     cv2.COLOR_BGR2RGB),
-        "past": past[0].numpy(), "future": scene.future[row].numpy(),
-        "goal_heatmap": torch.sigmoid(goal_logits / options.temperature)[:height, :width].numpy(),
-        "sampled_goals": out.goals[0].numpy(),
-        "trajectory_heatmap": torch.sigmoid(trajectory_logits).amax(0)[:height, :width].numpy(),
-        "predictions": out.trajectory[0].numpy(),
+        "past": past[0].cpu().numpy(), "future": scene.future[row].cpu().numpy(),
+        "goal_heatmap": torch.sigmoid(goal_logits / options.temperature)[:height, :width].cpu().numpy(),
+        "sampled_goals": out.goals[0].cpu().numpy(),
+        "trajectory_heatmap": torch.sigmoid(trajectory_logits).amax(0)[:height, :width].cpu().numpy(),
+        "predictions": out.trajectory[0].cpu().numpy(),
     }
 
 
@@ -199,9 +213,11 @@ def main(argv: list[str] | None = None) -> None:
     ttst = load_section(TtstParams, "ttst", params)
     cws = load_section(CwsParams, "cws", params)
     eval_params = load_profile(EvalParams, "eval", params)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device)
 
-    model, settings = load_model(args.model)
+    model, settings = load_model(args.model, device)
     torch.set_num_threads(settings.threads)
+    print(f"evaluate_ynet: on {describe(device)}")
     torch.set_flush_denormal(True)
     table = pd.read_parquet(args.windows)
     test = to_arrays(table[table["split"] == "test"], args.n_past)

@@ -34,7 +34,7 @@ import hashlib
 import json
 import shutil
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -46,11 +46,13 @@ import torch
 from pipeline import baselines, train_baseline
 from pipeline.baselines.common import select_split
 from pipeline.baselines.rpecnet import RecurrentPecnet
+from pipeline.device import RuntimeParams, describe, select_device
 from pipeline.evaluate_baseline import EvaluateBaselineParams, training_facts
 from pipeline.evaluate_baseline import evaluate as evaluate_baseline
 from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, evaluate, load_model,
                                     sampling_options)
 from pipeline.params import load_profile, load_section, read_params
+from pipeline.preemption import NEVER, Preemption, exit_when_stopped
 from pipeline.segmentation import (SegmentationParams, downsample_pair, epoch_batches, export_model,
                                    learning_rate, pad_to_multiple, scaled_size, train_step)
 from pipeline.segmentation import load_model as load_unet
@@ -98,6 +100,7 @@ class BenchmarkSettings:
     baseline_configs: dict[str, Any]  # sgan / pecnet -> their config dataclass
     train_baseline: TrainBaselineParams
     evaluate_baseline: EvaluateBaselineParams
+    runtime: RuntimeParams = field(default_factory=lambda: RuntimeParams(device="cpu"))
 
     @classmethod
     def from_params(cls, params: dict) -> BenchmarkSettings:
@@ -112,6 +115,7 @@ class BenchmarkSettings:
             baseline_configs={m: train_baseline.model_config(m, params) for m in TRAINED_BASELINES},
             train_baseline=load_section(TrainBaselineParams, "train_baseline", params),
             evaluate_baseline=load_section(EvaluateBaselineParams, "evaluate_baseline", params),
+            runtime=load_section(RuntimeParams, "runtime", params),
         )
 
 
@@ -180,10 +184,14 @@ def finetune(model: UNet, scenes: list[tuple[np.ndarray, np.ndarray]], params: S
 
 
 def semantic_maps(ind_dir: Path, index: dict, segmentation_model: Path, settings: BenchmarkSettings,
-                  work_dir: Path) -> tuple[dict[str, np.ndarray], dict]:
-    """scene_id -> (C, H, W) class probabilities at Y-net's resolution, and what was done."""
+                  work_dir: Path, device: torch.device = torch.device("cpu")
+                  ) -> tuple[dict[str, np.ndarray], dict]:
+    """scene_id -> (C, H, W) class probabilities at Y-net's resolution, and what was done.
+
+    The U-Net fine-tunes and segments on `device`. Its fine-tuning takes minutes and keeps no
+    checkpoint of its own, so a stop request is only honoured after it (by Y-net's training)."""
     scenes = index["scenes"]
-    model, meta = load_unet(segmentation_model)
+    model, meta = load_unet(segmentation_model, device)
     downsample = settings.ind.segmentation_downsample
     labelled = [name for name, info in scenes.items() if info["labels"]]
     facts: dict[str, Any] = {"segmentation_downsample": downsample,
@@ -257,7 +265,8 @@ def fresh_or_resumable(folder: Path, key: str) -> None:
 
 def ynet_benchmark(splits: dict[str, WindowArrays], maps: dict[str, np.ndarray],
                    sizes: dict[str, tuple[int, int]], settings: BenchmarkSettings, n_past: int,
-                   folder: Path) -> dict:
+                   folder: Path, device: torch.device = torch.device("cpu"),
+                   preemption: Preemption = NEVER) -> dict:
     """Train Y-net (val selects the epoch), then the main result, ablation and K_a grid on test."""
     ynet_settings = replace(settings.ynet, resize=settings.ind.ynet_resize)
     kept = {k: v for k, v in dataclasses.asdict(ynet_settings).items() if k not in ("epochs", "threads")}
@@ -268,9 +277,10 @@ def ynet_benchmark(splits: dict[str, WindowArrays], maps: dict[str, np.ndarray],
         digest.update(maps[name].tobytes())
     fresh_or_resumable(folder, digest.hexdigest())
     summary = train(splits["train"], splits["val"], maps, sizes, ynet_settings, n_past,
-                    folder / "last.pt", folder / "best.pt", folder / "history.csv")
+                    folder / "last.pt", folder / "best.pt", folder / "history.csv", device=device,
+                    preemption=preemption)
 
-    model, ynet_settings = load_model(folder / "best.pt")
+    model, ynet_settings = load_model(folder / "best.pt", device)
     test = splits["test"]
     scenes = group_by_scene(test, maps, sizes, ynet_settings.resize)
     params = settings.eval
@@ -297,7 +307,8 @@ def ynet_benchmark(splits: dict[str, WindowArrays], maps: dict[str, np.ndarray],
 
 
 def baseline_benchmark(long: WindowArrays, base: WindowArrays, settings: BenchmarkSettings,
-                       checkpoint_dir: Path) -> dict[str, dict]:
+                       checkpoint_dir: Path, device: torch.device = torch.device("cpu"),
+                       preemption: Preemption = NEVER) -> dict[str, dict]:
     """model -> scores in the layout of metrics/baselines/<model>_tf30.json."""
     seed, evaluation = settings.train_baseline.seed, settings.evaluate_baseline
     torch.set_num_threads(settings.train_baseline.threads)
@@ -306,13 +317,16 @@ def baseline_benchmark(long: WindowArrays, base: WindowArrays, settings: Benchma
     results, dirs = {}, {}
     for model in TRAINED_BASELINES:
         dirs[model] = checkpoint_dir / f"{model}_tf{horizon}"
-        train_baseline.train(model, long, settings.baseline_configs[model], dirs[model], seed)
+        train_baseline.train(model, long, settings.baseline_configs[model], dirs[model], seed,
+                             device, preemption)
     dirs["rpecnet"] = checkpoint_dir / f"pecnet_tf{base_horizon}"
-    train_baseline.train("pecnet", base, settings.baseline_configs["pecnet"], dirs["rpecnet"], seed)
+    train_baseline.train("pecnet", base, settings.baseline_configs["pecnet"], dirs["rpecnet"], seed,
+                         device, preemption)
     for model in (*TRAINED_BASELINES, "rpecnet", "constant_velocity"):
         trained = dirs.get(model)
-        fitted = baselines.get(model).load(trained)
-        scores = evaluate_baseline(fitted, test, evaluation.k, evaluation.rounds, evaluation.seed)
+        fitted = baselines.get(model).load(trained, device)
+        scores = evaluate_baseline(fitted, test, evaluation.k, evaluation.rounds, evaluation.seed,
+                                   device)
         results[model] = {"model": model, "horizon": horizon, "split": evaluation.split,
                           "seed": evaluation.seed, **scores, **training_facts(model, trained)}
     return results
@@ -330,7 +344,8 @@ def read_windows(ind_dir: Path, index: dict, horizon: int) -> WindowArrays:
 
 
 def run_benchmark(ind_dir: Path, segmentation_model: Path, checkpoint_dir: Path,
-                  settings: BenchmarkSettings) -> dict:
+                  settings: BenchmarkSettings, device: torch.device = torch.device("cpu"),
+                  preemption: Preemption = NEVER) -> dict:
     """The metrics record (results, or why there are none); checkpoints go to `checkpoint_dir`."""
     checkpoint_dir.mkdir(parents=True, exist_ok=True)
     index = json.loads((ind_dir / "index.json").read_text())
@@ -346,20 +361,22 @@ def run_benchmark(ind_dir: Path, segmentation_model: Path, checkpoint_dir: Path,
                          "(test: location 4; val: data.ind.val_recordings); see metrics/ind_windows.json")
     start = time.perf_counter()
     maps, semantic = semantic_maps(ind_dir, index, segmentation_model, settings,
-                                   checkpoint_dir / "segmentation")
+                                   checkpoint_dir / "segmentation", device)
     sizes = {name: (info["height"], info["width"]) for name, info in index["scenes"].items()}
-    ynet = ynet_benchmark(splits, maps, sizes, settings, index["n_past"], checkpoint_dir / "ynet")
+    ynet = ynet_benchmark(splits, maps, sizes, settings, index["n_past"], checkpoint_dir / "ynet",
+                          device, preemption)
     return {
         "provided": True, "status": "ok", "profile": settings.profile,
         "t_f": int(index["horizon"]), "k_e": settings.eval.k_e,
         "windows": {split: len(arrays) for split, arrays in splits.items()},
         **ynet,
         "semantic": semantic,
-        "baselines": baseline_benchmark(long, base, settings, checkpoint_dir),
+        "baselines": baseline_benchmark(long, base, settings, checkpoint_dir, device, preemption),
         "seconds": time.perf_counter() - start,
     }
 
 
+@exit_when_stopped
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ind", type=Path, required=True, help="output folder of stage ind_windows")
@@ -369,7 +386,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--metrics", type=Path, required=True)
     args = parser.parse_args(argv)
     settings = BenchmarkSettings.from_params(read_params())
-    result = run_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir, settings)
+    device = select_device(settings.runtime.device)
+    print(f"ind_benchmark: on {describe(device)}")
+    with Preemption(settings.runtime.max_minutes) as preemption:
+        result = run_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir, settings,
+                               device, preemption)
     write_json_atomic(result, args.metrics)
     if not result["provided"]:
         print(f"ind_benchmark: inD not provided: {result['reason']}")

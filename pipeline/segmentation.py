@@ -8,6 +8,11 @@ trains in minutes on two CPU cores. The `paper` profile holds the paper's schedu
 
 Seeded; one checkpoint per epoch (state_dicts only) tagged with a fingerprint of the settings and the
 training data, so an interrupted run resumes where it stopped and a changed run starts afresh.
+On SIGTERM / SIGINT or when `runtime.max_minutes` runs out (`pipeline.preemption`) the loop also
+saves a mid-epoch checkpoint between two optimiser steps and stops (exit 143 / 130 / 75); resuming
+from it ends with the very same weights as an uninterrupted run. Runs on `runtime.device`
+(`pipeline.device`): on the CPU the numbers are those of the CPU-only code; on CUDA in bf16
+autocast and channels-last.
 """
 
 from __future__ import annotations
@@ -29,11 +34,19 @@ import torch
 from tqdm import tqdm
 
 from pipeline.augment import AugmentParams, random_crop
+from pipeline.device import (RuntimeParams, autocast, conv_layout, describe, select_device,
+                             synchronize, to_device)
 from pipeline.labels import atomic_write_bytes, read_index, read_label_map, reference_image_path
-from pipeline.params import load_profile, read_params
+from pipeline.params import load_profile, load_section, read_params
+from pipeline.preemption import NEVER, Preemption, exit_when_stopped
 from ynet.segmentation import CLASS_NAMES, PAD_CLASS, UNet, UNetConfig, dice_loss
 
-CHECKPOINT_FORMAT = 1
+CHECKPOINT_FORMAT = 2
+"""Training checkpoints. 2: adds RNG states and, after a stop between steps, the position within the
+epoch (`position`). 1 (end-of-epoch only) still resumes; anything else starts afresh."""
+RESUMABLE_FORMATS = (1, 2)
+MODEL_FORMAT = 1
+"""The exported weights (`export_model`); unchanged by checkpoint format 2."""
 
 
 @dataclass(frozen=True)
@@ -51,7 +64,8 @@ class SegmentationParams:
     lr_drop_epoch: int
     """From this epoch on the learning rate is multiplied by `lr_drop_factor` (paper: 1500)."""
     bf16: bool
-    """bfloat16 autocast + channels-last: ~3x faster on CPUs with AMX/AVX512-BF16, slow elsewhere."""
+    """On the CPU, bfloat16 autocast + channels-last: ~3x faster on CPUs with AMX/AVX512-BF16, slow
+    elsewhere. On CUDA both are always on, whatever this says (`pipeline.device.autocast`)."""
     seed: int = 0
     """Seeds weight init and the crop/augmentation stream (one numpy stream per epoch)."""
     downsample: int = 4
@@ -130,6 +144,27 @@ def fingerprint(params: SegmentationParams, names: list[str],
     return digest.hexdigest()[:16]
 
 
+def epoch_order(params: SegmentationParams, n_scenes: int, epoch: int
+                ) -> tuple[np.random.Generator, np.ndarray]:
+    """The epoch's random stream, already past the scene order it drew first, and that order
+    (scene index per crop). Depends only on (seed, epoch), so a resumed run draws the same crops."""
+    rng = np.random.default_rng([params.seed, epoch])
+    order = rng.permutation(np.repeat(np.arange(n_scenes), params.crops_per_image))
+    return rng, order
+
+
+def make_batch(
+    scenes: list[tuple[np.ndarray, np.ndarray]], params: SegmentationParams,
+    rng: np.random.Generator, indices: np.ndarray,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Augmented crops of `scenes[indices]`, drawn from `rng`: images (B, 3, crop, crop) float in
+    [0, 1] (a channels-last view of the crops), labels (B, crop, crop) int64; CPU tensors."""
+    crops = [random_crop(*scenes[i], rng, params.augment, params.crop, PAD_CLASS) for i in indices]
+    images = torch.from_numpy(np.stack([c[0] for c in crops])).permute(0, 3, 1, 2)  # (B, 3, h, w)
+    labels = torch.from_numpy(np.stack([c[1] for c in crops])).long()  # (B, h, w)
+    return images, labels
+
+
 def epoch_batches(
     scenes: list[tuple[np.ndarray, np.ndarray]], params: SegmentationParams, epoch: int
 ) -> Iterator[tuple[torch.Tensor, torch.Tensor]]:
@@ -137,14 +172,9 @@ def epoch_batches(
 
     The random stream depends only on (seed, epoch), so a resumed run draws the same crops.
     """
-    rng = np.random.default_rng([params.seed, epoch])
-    order = rng.permutation(np.repeat(np.arange(len(scenes)), params.crops_per_image))
+    rng, order = epoch_order(params, len(scenes), epoch)
     for start in range(0, len(order), params.batch_size):
-        crops = [random_crop(*scenes[i], rng, params.augment, params.crop, PAD_CLASS)
-                 for i in order[start:start + params.batch_size]]
-        images = torch.from_numpy(np.stack([c[0] for c in crops])).permute(0, 3, 1, 2)  # (B, 3, h, w)
-        labels = torch.from_numpy(np.stack([c[1] for c in crops])).long()  # (B, h, w)
-        yield images, labels
+        yield make_batch(scenes, params, rng, order[start:start + params.batch_size])
 
 
 def learning_rate(params: SegmentationParams, epoch: int) -> float:
@@ -164,24 +194,61 @@ def save_torch(path: Path, payload: dict) -> None:
 
 
 def load_checkpoint(path: Path) -> dict | None:
-    """A checkpoint dict, or None if absent; `weights_only` refuses anything but tensors and plain data."""
+    """A checkpoint dict, or None if absent; `weights_only` refuses anything but tensors and plain data.
+
+    Tensors land on the CPU whatever device wrote them (`load_state_dict` moves them on)."""
     if not Path(path).exists():
         return None
     return torch.load(path, map_location="cpu", weights_only=True)
 
 
-def train_step(model: UNet, optimiser: torch.optim.Optimizer, images: torch.Tensor,
-               labels: torch.Tensor, bf16: bool) -> float:
-    """One Adam step on the Dice loss; returns the loss."""
-    if bf16:
+def model_device(model: torch.nn.Module) -> torch.device:
+    """The device a model's parameters live on (where its inputs must go)."""
+    return next(model.parameters()).device
+
+
+def step_loss(model: UNet, optimiser: torch.optim.Optimizer, images: torch.Tensor,
+              labels: torch.Tensor, bf16: bool) -> torch.Tensor:
+    """One Adam step on the Dice loss, on the model's device; returns the detached loss (0-d, on that
+    device, so the caller decides when to wait for it).
+
+    `bf16`: the profile's CPU bf16 autocast + channels-last; on CUDA both are always on.
+    """
+    device = model_device(model)
+    images, labels = to_device(images, device), to_device(labels, device)
+    if bf16 or device.type == "cuda":
         images = images.contiguous(memory_format=torch.channels_last)
-    with torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
+    with autocast(device, cpu_bf16=bf16):
         logits = model(images)  # (B, C, h, w)
     loss = dice_loss(logits.float(), labels)
     optimiser.zero_grad(set_to_none=True)
     loss.backward()
     optimiser.step()
-    return loss.item()
+    return loss.detach()
+
+
+def train_step(model: UNet, optimiser: torch.optim.Optimizer, images: torch.Tensor,
+               labels: torch.Tensor, bf16: bool) -> float:
+    """One Adam step on the Dice loss (on the model's device; inputs may be CPU tensors); returns
+    the loss."""
+    return step_loss(model, optimiser, images, labels, bf16).item()
+
+
+def rng_states(device: torch.device) -> dict:
+    """torch's RNG states (CPU, and the device's when on CUDA), for a checkpoint."""
+    states = {"torch": torch.get_rng_state()}
+    if device.type == "cuda":
+        states["cuda"] = torch.cuda.get_rng_state(device)
+    return states
+
+
+def restore_rng_states(states: dict | None, device: torch.device) -> None:
+    """Undo `rng_states` (a CUDA state only when resuming on CUDA); None (format 1): nothing."""
+    if not states:
+        return
+    torch.set_rng_state(states["torch"])
+    if device.type == "cuda" and "cuda" in states:
+        torch.cuda.set_rng_state(states["cuda"], device)
 
 
 def train(
@@ -191,62 +258,119 @@ def train(
     run_id: str,
     stop_after: int | None = None,
     progress: bool = True,
+    device: torch.device | str = "cpu",
+    preemption: Preemption = NEVER,
 ) -> tuple[UNet, list[dict]]:
-    """Train (or resume) the U-Net; checkpoint after every epoch. Returns the model and epoch log.
+    """Train (or resume) the U-Net on `device`; checkpoint after every epoch. Returns the model and
+    epoch log.
 
     `stop_after` ends the call after that many epochs, as an interruption would (tests, benchmarks).
+    `preemption` is polled between optimiser steps (from the second step of this call on, so every
+    call advances however small the time budget): once it asks to stop, a mid-epoch checkpoint is
+    saved (see `checkpoint_payload`) and its `StopRequested` raised; the next call resumes at that
+    very step and ends with the same weights as an uninterrupted run on the same device.
     """
+    device = torch.device(device)
     torch.manual_seed(params.seed)
-    model = UNet(unet_config(params))
+    model = UNet(unet_config(params))  # initialised on the CPU: the same start on every device
     if params.bf16:
         model = model.to(memory_format=torch.channels_last)
+    model = conv_layout(model, device)
     optimiser = torch.optim.Adam(model.parameters(), lr=params.lr)
     log: list[dict] = []
+    position: dict | None = None  # where in an epoch a mid-epoch checkpoint stopped
     state = load_checkpoint(checkpoint)
-    same_run = state is not None and (state.get("format"), state.get("fingerprint")) == (
-        CHECKPOINT_FORMAT, run_id)
-    if same_run:
+    if state is not None and state.get("format") not in RESUMABLE_FORMATS:
+        if progress:
+            print(f"segmentation: {checkpoint} has checkpoint format {state.get('format')!r}, this "
+                  f"code reads {RESUMABLE_FORMATS}; starting afresh")
+    elif state is not None and state.get("fingerprint") != run_id:
+        if progress:
+            print(f"segmentation: {checkpoint} belongs to another run (settings or data changed); "
+                  "starting afresh")
+    elif state is not None:
         model.load_state_dict(state["model"])
         optimiser.load_state_dict(state["optimiser"])
         log = list(state["log"])
-        if log and progress:
+        restore_rng_states(state.get("rng"), device)
+        position = state.get("position")
+        if progress and position is not None:
+            print(f"segmentation: resuming at epoch {position['epoch'] + 1}, step "
+                  f"{position['step']} from {checkpoint}")
+        elif progress and log:
             print(f"segmentation: resuming after epoch {len(log)} from {checkpoint}")
-    elif state is not None and progress:
-        print(f"segmentation: {checkpoint} belongs to another run (settings or data changed); "
-              "starting afresh")
     first = len(log)
     last = params.epochs if stop_after is None else min(params.epochs, first + stop_after)
     n_steps = -(-len(scenes) * params.crops_per_image // params.batch_size)
-    bar = tqdm(total=(params.epochs - first) * n_steps, disable=not progress, unit="step",
-               desc="segmentation")
+    bar = tqdm(total=(params.epochs - first) * n_steps - (position["step"] if position else 0),
+               disable=not progress, unit="step", desc="segmentation")
     model.train()
-    for epoch in range(first, last):
-        start = time.perf_counter()
-        for group in optimiser.param_groups:
-            group["lr"] = learning_rate(params, epoch)
-        losses = []
-        n_crops = 0
-        for images, labels in epoch_batches(scenes, params, epoch):
-            losses.append(train_step(model, optimiser, images, labels, params.bf16))
-            n_crops += len(images)
-            bar.update()
-            bar.set_postfix(epoch=epoch + 1, loss=f"{losses[-1]:.3f}")
-        seconds = time.perf_counter() - start
-        log.append({"epoch": epoch + 1, "loss": float(np.mean(losses)),
-                    "lr": learning_rate(params, epoch), "crops": n_crops, "seconds": round(seconds, 3)})
-        save_torch(checkpoint, {"format": CHECKPOINT_FORMAT, "fingerprint": run_id,
-                                "model": model.state_dict(), "optimiser": optimiser.state_dict(),
-                                "log": log})
-    bar.close()
+    steps_taken = 0  # in this call
+    try:
+        for epoch in range(first, last):
+            start = time.perf_counter()
+            for group in optimiser.param_groups:
+                group["lr"] = learning_rate(params, epoch)
+            rng, order = epoch_order(params, len(scenes), epoch)
+            first_step, losses, n_crops, seconds_before = 0, [], 0, 0.0
+            if position is not None:
+                if position["epoch"] != epoch:
+                    raise ValueError(f"{checkpoint}: mid-epoch position {position} after "
+                                     f"{len(log)} logged epochs")
+                rng.bit_generator.state = position["batch_rng"]
+                first_step, losses = position["step"], list(position["losses"])
+                n_crops, seconds_before = position["crops"], position["seconds"]
+                position = None
+            pending = None  # the last step's loss, read after the next batch is made (GPU overlap)
+            for step in range(first_step, n_steps):
+                if steps_taken and preemption.stop_reason() is not None:
+                    if pending is not None:
+                        losses.append(pending.item())
+                    save_torch(checkpoint, checkpoint_payload(
+                        run_id, model, optimiser, log, device, position={
+                            "epoch": epoch, "step": step, "batch_rng": rng.bit_generator.state,
+                            "losses": losses, "crops": n_crops,
+                            "seconds": seconds_before + time.perf_counter() - start}))
+                    raise preemption.request(f"epoch {epoch + 1}, step {step}")
+                batch = order[step * params.batch_size:(step + 1) * params.batch_size]
+                images, labels = make_batch(scenes, params, rng, batch)
+                loss = step_loss(model, optimiser, images, labels, params.bf16)
+                n_crops += len(images)
+                steps_taken += 1
+                if pending is not None:
+                    losses.append(pending.item())
+                pending = loss
+                bar.update()
+                bar.set_postfix(epoch=epoch + 1, loss=f"{losses[-1]:.3f}" if losses else "...")
+            if pending is not None:
+                losses.append(pending.item())
+            synchronize(device)
+            seconds = seconds_before + time.perf_counter() - start
+            log.append({"epoch": epoch + 1, "loss": float(np.mean(losses)),
+                        "lr": learning_rate(params, epoch), "crops": n_crops,
+                        "seconds": round(seconds, 3)})
+            save_torch(checkpoint, checkpoint_payload(run_id, model, optimiser, log, device))
+    finally:
+        bar.close()
     return model, log
+
+
+def checkpoint_payload(run_id: str, model: UNet, optimiser: torch.optim.Optimizer, log: list[dict],
+                       device: torch.device, position: dict | None = None) -> dict:
+    """A training checkpoint (format 2): state_dicts, log, RNG states; `position` (mid-epoch only):
+    epoch (0-based), step (the next one to take), batch_rng (the epoch's numpy stream before that
+    step's crops), losses (the epoch's step losses so far), crops, seconds (spent in the epoch)."""
+    return {"format": CHECKPOINT_FORMAT, "fingerprint": run_id, "model": model.state_dict(),
+            "optimiser": optimiser.state_dict(), "log": log, "rng": rng_states(device),
+            "position": position, "device": str(device)}
 
 
 def export_model(path: Path, model: UNet, params: SegmentationParams, profile: str,
                  names: list[str], log: list[dict]) -> None:
     """The trained weights with everything needed to rebuild and use them (no pickled modules)."""
     save_torch(path, {
-        "format": CHECKPOINT_FORMAT,
-        "model": model.state_dict(),
+        "format": MODEL_FORMAT,
+        "model": {name: value.cpu() for name, value in model.state_dict().items()},
         "unet": dataclasses.asdict(model.cfg),
         "classes": list(CLASS_NAMES),
         "downsample": params.downsample,
@@ -261,13 +385,15 @@ def export_model(path: Path, model: UNet, params: SegmentationParams, profile: s
     })
 
 
-def load_model(path: Path) -> tuple[UNet, dict]:
-    """Rebuild the exported U-Net in eval mode; returns it and the export's metadata."""
+def load_model(path: Path, device: torch.device | str = "cpu") -> tuple[UNet, dict]:
+    """Rebuild the exported U-Net in eval mode on `device` (channels-last on CUDA); returns it and
+    the export's metadata."""
     state = load_checkpoint(path)
     if state is None:
         raise FileNotFoundError(f"{path}: no trained segmentation model")
     model = UNet(UNetConfig(**state["unet"]))
     model.load_state_dict(state["model"])
+    model = conv_layout(model, torch.device(device))
     model.eval()
     return model, {k: v for k, v in state.items() if k != "model"}
 
@@ -281,6 +407,7 @@ def write_log(path: Path, log: list[dict]) -> None:
     atomic_write_bytes(path, buffer.getvalue().encode())
 
 
+@exit_when_stopped
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sdd", type=Path, required=True, help="SDD root holding annotations/")
@@ -295,8 +422,10 @@ def main() -> None:
     args = parser.parse_args()
     raw = read_params()
     params = load_profile(SegmentationParams, "segmentation", raw)
+    runtime = load_section(RuntimeParams, "runtime", raw)
     profile = raw["profile"]
     torch.set_num_threads(args.threads)
+    device = select_device(runtime.device)
 
     index = read_index(args.labels)
     names = sorted(n for n, v in index["videos"].items() if v["split"] == "train")
@@ -305,8 +434,10 @@ def main() -> None:
     scenes = load_training_scenes(args.sdd, args.labels, names, params.downsample, params.pad_multiple)
     run_id = fingerprint(params, names, scenes)
     print(f"segmentation: profile {profile}, {len(names)} train videos, run {run_id}, "
-          f"{torch.get_num_threads()} threads")
-    model, log = train(scenes, params, args.checkpoint, run_id)
+          f"on {describe(device)}")
+    with Preemption(runtime.max_minutes) as preemption:
+        model, log = train(scenes, params, args.checkpoint, run_id, device=device,
+                           preemption=preemption)
     export_model(args.model, model, params, profile, names, log)
     write_log(args.log, log)
     seconds = sum(row["seconds"] for row in log)

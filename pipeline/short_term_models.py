@@ -49,11 +49,13 @@ import torch
 
 from pipeline import baselines
 from pipeline.baselines.common import select_split, subset
+from pipeline.device import RuntimeParams, describe, generator, select_device
 from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, load_model, predict_scenes,
                                     sampling_options, summarize_rounds, write_json)
 from pipeline.homography import pixels_to_metres
 from pipeline.metrics import summarize, window_errors
 from pipeline.params import load_profile, load_section, read_params
+from pipeline.preemption import NEVER, Preemption, exit_when_stopped
 from pipeline.semantic_maps import load_semantic_maps
 from pipeline.short_term import (FOLD_TEST_SCENES, EthUcySceneInfo, ShortTermParams,
                                  load_ethucy_scenes)
@@ -273,12 +275,14 @@ def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None]], bench: 
 
 
 def run_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n_past: int,
-             folder: Path, params: ShortTermModelsParams, ks: list[int]) -> tuple[dict, dict[int, dict]]:
+             folder: Path, params: ShortTermModelsParams, ks: list[int],
+             device: torch.device = torch.device("cpu"),
+             preemption: Preemption = NEVER) -> tuple[dict, dict[int, dict]]:
     """Train (or resume) Y-net, then score its best epoch at every K_e of `ks`."""
     val = sample_windows(bench.val, params.val_windows, params.seed)
     facts = train(bench.train, val, semantic_maps, sizes, settings, n_past, folder / "last.pt",
-                  folder / "best.pt", folder / "history.csv")
-    model, loaded = load_model(folder / "best.pt")
+                  folder / "best.pt", folder / "history.csv", device=device, preemption=preemption)
+    model, loaded = load_model(folder / "best.pt", device)
     torch.set_num_threads(loaded.threads)
     scenes = group_by_scene(bench.test, semantic_maps, sizes, loaded.resize)
     ttst = TtstParams(temperature=params.temperature, rel_threshold=params.rel_threshold)
@@ -306,10 +310,13 @@ def run_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n_p
 
 
 def run_baseline(name: str, bench: Benchmark, config, folder: Path, train_seed: int,
-                 params: ShortTermModelsParams, ks: list[int]) -> tuple[dict, dict[int, dict]]:
+                 params: ShortTermModelsParams, ks: list[int],
+                 device: torch.device = torch.device("cpu"),
+                 preemption: Preemption = NEVER) -> tuple[dict, dict[int, dict]]:
     """Fit S-GAN or PECNet (resuming from `folder`), then score its best epoch at every K."""
     val = sample_windows(bench.val, params.val_windows, params.seed)
-    model = baselines.get(name).fit(bench.train, val, config, folder, train_seed)
+    model = baselines.get(name).fit(bench.train, val, config, folder, train_seed, device=device,
+                                    preemption=preemption)
     fit = model.fit_result
     facts = {"epochs": fit.epochs, "best_epoch": fit.best_epoch, "best_val_ade_px": fit.best_val_ade,
              "train_seconds": fit.train_seconds, "train_windows": len(bench.train),
@@ -317,7 +324,7 @@ def run_baseline(name: str, bench: Benchmark, config, folder: Path, train_seed: 
     start, results = time.perf_counter(), {}
     for k in ks:
         def sample(seed: int, k=k) -> tuple[np.ndarray, None]:
-            return model.predict(bench.test, k, torch.Generator().manual_seed(seed)), None
+            return model.predict(bench.test, k, generator(device, seed)), None
 
         results[k] = score(sample, bench, params.rounds, params.seed)
     facts["eval_seconds"] = time.perf_counter() - start
@@ -337,6 +344,7 @@ def not_run_record(dataset: str, model: str, profile: str, params: ShortTermMode
             "not_run_reason": reason}
 
 
+@exit_when_stopped
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, choices=DATASETS)
@@ -353,6 +361,9 @@ def main(argv: list[str] | None = None) -> None:
     profile = params["profile"]
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     windows = load_section(ShortTermParams, "short_term", params)
+    runtime = load_section(RuntimeParams, "runtime", params)
+    device = select_device(runtime.device)
+    print(f"short_term_models: {args.model} on {describe(device)}")
     if args.model == "ynet" and args.dataset not in settings.ynet_datasets:
         write_json(not_run_record(args.dataset, args.model, profile, settings), args.metrics)
         print(f"short_term_models: Y-net not run on {args.dataset} in the {profile} profile")
@@ -379,15 +390,17 @@ def main(argv: list[str] | None = None) -> None:
             raise ValueError(f"{args.maps}: maps of different channel counts {sorted(classes)}")
         model_settings = ynet_settings(load_profile(YnetSettings, "ynet", params), settings,
                                        args.dataset, windows.n_future, classes.pop())
-        facts, results = run_ynet(bench, maps, sizes, model_settings, windows.n_past,
-                                  args.checkpoint_dir, settings, ks)
+        with Preemption(runtime.max_minutes) as preemption:
+            facts, results = run_ynet(bench, maps, sizes, model_settings, windows.n_past,
+                                      args.checkpoint_dir, settings, ks, device, preemption)
     else:
         seeds = load_section(TrainBaselineParams, "train_baseline", params)
         torch.set_num_threads(seeds.threads)
         config = replace(model_config(args.model, params),
                          epochs=settings.epochs[args.model][benchmark_of(args.dataset)])
-        facts, results = run_baseline(args.model, bench, config, args.checkpoint_dir, seeds.seed,
-                                      settings, ks)
+        with Preemption(runtime.max_minutes) as preemption:
+            facts, results = run_baseline(args.model, bench, config, args.checkpoint_dir,
+                                          seeds.seed, settings, ks, device, preemption)
     record = {"dataset": args.dataset, "model": args.model, "profile": profile, "trained": True,
               "unit": bench.unit, "n_windows": len(bench.test), "rounds": settings.rounds, "ks": ks,
               **{f"k{k}": result for k, result in results.items()},

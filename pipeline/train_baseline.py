@@ -7,6 +7,9 @@ facts. Settings: section `train_baseline` (seed, threads) and the model's own se
 `pecnet`), which holds one config per profile: `cpu` (sized so that every baseline at every
 horizon trains in about 30 minutes on 2 cores) and `paper` (upstream's settings, e.g. PECNet 650
 epochs); the top-level `profile` key picks one for every stage (`dvc exp run -S profile=paper`).
+Section `runtime`: the device trained on, and `max_minutes`. SIGTERM / SIGINT or the time budget
+save a mid-epoch checkpoint and exit with 143 / 130 / 75 (`pipeline.preemption`); the next run
+continues from it to the same weights as an uninterrupted one.
 
     python -m pipeline.train_baseline --model pecnet --horizon 30 \
         --table data/horizon_windows/tf30.parquet --checkpoint-dir checkpoints/pecnet_tf30 \
@@ -23,8 +26,10 @@ from pathlib import Path
 import torch
 
 from pipeline import baselines
-from pipeline.baselines.common import load_windows, save_json_atomic, select_split
+from pipeline.baselines.common import CPU, load_windows, save_json_atomic, select_split
+from pipeline.device import RuntimeParams, describe, select_device
 from pipeline.params import load_profile, load_section, read_params
+from pipeline.preemption import NEVER, Preemption, exit_when_stopped
 from pipeline.window_table import WindowArrays
 from pipeline.windows import WindowParams
 
@@ -48,11 +53,14 @@ def model_config(model: str, params: dict):
     return load_profile(baselines.get(model).config_class, model, params)
 
 
-def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: int) -> dict:
-    """Fit `model` on the train split (selecting on val); returns the training facts (the
-    per-epoch history stays in the checkpoint's last.pt)."""
+def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: int,
+          device: torch.device = CPU, preemption: Preemption = NEVER) -> dict:
+    """Fit `model` on the train split (selecting on val) on `device`; returns the training facts
+    (the per-epoch history stays in the checkpoint's last.pt). Raises `StopRequested` (after a
+    mid-epoch checkpoint) when `preemption` says so."""
     train_set, val_set = select_split(arrays, "train"), select_split(arrays, "val")
-    fitted = baselines.get(model).fit(train_set, val_set, config, checkpoint_dir, seed)
+    fitted = baselines.get(model).fit(train_set, val_set, config, checkpoint_dir, seed,
+                                      device=device, preemption=preemption)
     result = fitted.fit_result
     return {
         "n_train": len(train_set), "n_val": len(val_set), "epochs": result.epochs,
@@ -62,6 +70,7 @@ def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: 
     }
 
 
+@exit_when_stopped
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", required=True, choices=baselines.TRAINABLE)
@@ -74,14 +83,19 @@ def main(argv: list[str] | None = None) -> None:
     params = load_section(TrainBaselineParams, "train_baseline", all_params)
     config = model_config(args.model, all_params)
     n_past = load_section(WindowParams, "windows", all_params).n_past
+    runtime = load_section(RuntimeParams, "runtime", all_params)
     torch.set_num_threads(params.threads)
+    device = select_device(runtime.device)
+    print(f"train_baseline {args.model} t_f = {args.horizon}: {describe(device)}", flush=True)
 
     arrays = load_windows(args.table, n_past, args.horizon)
     t0 = time.perf_counter()
-    facts = train(args.model, arrays, config, args.checkpoint_dir, params.seed)
+    with Preemption(runtime.max_minutes) as preemption:
+        facts = train(args.model, arrays, config, args.checkpoint_dir, params.seed, device, preemption)
     save_json_atomic({
         "model": args.model, "horizon": args.horizon, "profile": all_params["profile"], "seed": params.seed,
-        "threads": params.threads, "wall_seconds": time.perf_counter() - t0, **facts,
+        "threads": params.threads, "device": describe(device), "wall_seconds": time.perf_counter() - t0,
+        **facts,
     }, args.metrics)
 
 

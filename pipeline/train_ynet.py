@@ -5,7 +5,9 @@ rotation/flip variants (drawn at random per scene and epoch, seeded), its window
 batches. After every epoch: validation ADE/FDE (deterministic: softargmax goal and waypoints, one
 path; model selection never sees the test set), a checkpoint (weights, optimiser, RNG states,
 history) written atomically, and the best weights kept. Re-running after an interruption resumes
-from the last checkpoint.
+from the last checkpoint; on SIGTERM / SIGINT or when `runtime.max_minutes` is spent, the epoch's
+progress is checkpointed too (`pipeline.preemption`), so the run resumes at the very step it
+stopped at and ends with the weights of an uninterrupted run. Runs on `runtime.device`.
 """
 
 from __future__ import annotations
@@ -26,8 +28,11 @@ import pandas as pd
 import torch
 from tqdm import tqdm
 
+from pipeline.device import (RuntimeParams, autocast, conv_layout, describe, select_device,
+                             to_device)
 from pipeline.metrics import ade_fde
-from pipeline.params import load_profile, read_params
+from pipeline.params import load_profile, load_section, read_params
+from pipeline.preemption import NEVER, Preemption, exit_when_stopped
 from pipeline.semantic_maps import load_semantic_maps
 from pipeline.window_table import WindowArrays, to_arrays
 from pipeline.ynet_data import (AUGMENTATIONS, SceneWindows, augment, cropped_training_batch,
@@ -161,7 +166,7 @@ def deterministic_predict(model: YNet, scene: SceneWindows, settings: YnetSettin
         path = softargmax(model.predict_trajectory(features, maps))  # (B, n_f, 2)
         paths.append(path + origin[:, None])
         goals.append(waypoints[:, -1] + origin)
-    return torch.cat(paths).numpy(), torch.cat(goals).numpy()
+    return torch.cat(paths).float().cpu().numpy(), torch.cat(goals).float().cpu().numpy()
 
 
 def validate(model: YNet, scenes: list[SceneWindows], settings: YnetSettings) -> dict[str, float]:
@@ -172,7 +177,7 @@ def validate(model: YNet, scenes: list[SceneWindows], settings: YnetSettings) ->
         path, goal = deterministic_predict(model, scene, settings, settings.batch_size)
         preds.append(path)
         goals.append(goal)
-        truths.append(scene.future.numpy())
+        truths.append(scene.future.cpu().numpy())
     scores = ade_fde(np.concatenate(preds)[:, None] / settings.resize,
                      np.concatenate(truths) / settings.resize,
                      np.concatenate(goals)[:, None] / settings.resize)
@@ -194,14 +199,25 @@ def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
 
 
 def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: YnetSettings,
-                rng: np.random.Generator, epoch: int) -> float:
+                plan: list[tuple[int, int, bool, np.ndarray]], epoch: int, losses: list[float],
+                device: torch.device = torch.device("cpu"), preemption: Preemption = NEVER,
+                save_partial=None) -> float:
+    """One epoch's optimiser steps, from step `len(losses)` of `plan` on; returns the mean loss.
+
+    `losses` holds the steps already taken (a resumed epoch) and grows in place. Before each step
+    the loop asks `preemption`; if it says stop, `save_partial(losses)` checkpoints the epoch so
+    far and `StopRequested` is raised.
+    """
     model.train()
-    losses = []
-    plan = epoch_plan(scenes, settings, rng)
     if settings.steps_per_epoch:
         plan = plan[:settings.steps_per_epoch]  # shuffled: a random subset of the batches
     augmented: dict[tuple[int, int, bool], tuple[SceneWindows, torch.Tensor]] = {}
-    for s, turns, flip, rows in tqdm(plan, desc=f"epoch {epoch}", leave=False, disable=None):
+    for step in tqdm(range(len(losses), len(plan)), desc=f"epoch {epoch}", leave=False,
+                     disable=None, initial=len(losses), total=len(plan)):
+        if preemption.stop_reason():
+            save_partial(losses)
+            raise preemption.request(f"epoch {epoch}, step {step} of {len(plan)}")
+        s, turns, flip, rows = plan[step]
         key = (s, turns, flip)
         if key not in augmented:  # the scene's map is prepared once per augmentation
             scene = augment(scenes[s], turns, flip)
@@ -216,8 +232,13 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
             batch = training_batch(semantic, scene.past[rows], scene.future[rows],
                                    tuple(settings.waypoints), settings.max_distance,
                                    settings.kernel_size, settings.sigma)
-        goal_logits, trajectory_logits = model(batch.inputs, batch.waypoint_maps)
-        loss = ynet_loss(goal_logits, trajectory_logits, batch.target, settings.loss_scale).total
+        inputs = batch.inputs
+        if device.type == "cuda":
+            inputs = inputs.contiguous(memory_format=torch.channels_last)
+        with autocast(device):
+            goal_logits, trajectory_logits = model(inputs, batch.waypoint_maps)
+        loss = ynet_loss(goal_logits.float(), trajectory_logits.float(), batch.target,
+                         settings.loss_scale).total
         optimizer.zero_grad(set_to_none=True)
         loss.backward()
         optimizer.step()
@@ -249,11 +270,12 @@ def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str
     return digest.hexdigest()
 
 
-def resumable_checkpoint(path: Path, run_id: str, epochs: int) -> dict | None:
+def resumable_checkpoint(path: Path, run_id: str, epochs: int,
+                         device: torch.device = torch.device("cpu")) -> dict | None:
     """The checkpoint at `path` if this run can continue from it, else None (saying why)."""
     if not path.exists():
         return None
-    saved = torch.load(path, weights_only=True)
+    saved = torch.load(path, weights_only=True, map_location=device)
     if saved.get("run_id") != run_id:
         print(f"train_ynet: {path} was trained with other settings, windows or maps; starting afresh")
         return None
@@ -285,39 +307,66 @@ def save_atomic(payload: dict, path: Path) -> None:
     os.replace(tmp, path)
 
 
-def rng_state(rng: np.random.Generator) -> dict:
-    return {"numpy_plan": rng.bit_generator.state, "torch": torch.get_rng_state()}
+def rng_state(plan_state: dict, device: torch.device) -> dict:
+    """The RNG states a resumed run restores: the epoch plan's (numpy) and torch's."""
+    state = {"numpy_plan": plan_state, "torch": torch.get_rng_state()}
+    if device.type == "cuda":
+        state["torch_cuda"] = torch.cuda.get_rng_state(device)
+    return state
 
 
 def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, sizes,
           settings: YnetSettings, n_past: int, checkpoint: Path, best_path: Path,
-          history_path: Path, epochs: int | None = None) -> dict:
-    """Train (resuming from `checkpoint` if present); returns the training summary."""
+          history_path: Path, epochs: int | None = None, device: torch.device = torch.device("cpu"),
+          preemption: Preemption = NEVER) -> dict:
+    """Train (resuming from `checkpoint` if present); returns the training summary.
+
+    Checkpoint = weights, optimiser, the plan RNG's state at the start of the next epoch (or of the
+    current one, with `partial_losses` of the steps already taken in it), torch's RNG, history.
+    """
     torch.set_num_threads(settings.threads)
     torch.set_flush_denormal(True)  # otherwise Adam crawls through denormal numbers on CPU
     seed_everything(settings.seed)
     n_future = train_arrays.future.shape[1]
-    model = YNet(settings.model_config(n_past, n_future))
+    model = conv_layout(YNet(settings.model_config(n_past, n_future)), device)  # seeded init on CPU
     optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
     rng = np.random.default_rng(settings.seed)
-    train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize)
-    val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize)
+    train_scenes = [scene.to(device) for scene in
+                    group_by_scene(train_arrays, semantic_maps, sizes, settings.resize)]
+    val_scenes = [scene.to(device) for scene in
+                  group_by_scene(val_arrays, semantic_maps, sizes, settings.resize)]
 
     state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
+    partial_losses: list[float] = []
     run_id = run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)
     kept_best = checkpoint.with_name("best.pt")  # the best weights, kept beside the checkpoint
-    saved = resumable_checkpoint(checkpoint, run_id, epochs or settings.epochs)
+    saved = resumable_checkpoint(checkpoint, run_id, epochs or settings.epochs, device)
     if saved is not None:
         model.load_state_dict(saved["model"])
         optimizer.load_state_dict(saved["optimizer"])
         rng.bit_generator.state = saved["rng"]["numpy_plan"]
-        torch.set_rng_state(saved["rng"]["torch"])
+        torch.set_rng_state(saved["rng"]["torch"].cpu())
+        if device.type == "cuda" and "torch_cuda" in saved["rng"]:
+            torch.cuda.set_rng_state(saved["rng"]["torch_cuda"].cpu(), device)
         state = saved["state"]
-        print(f"train_ynet: resuming after epoch {state['epoch']}")
+        partial_losses = list(saved.get("partial_losses", []))
+        print(f"train_ynet: resuming after epoch {state['epoch']}"
+              + (f", step {len(partial_losses)}" if partial_losses else ""))
+
+    def save_checkpoint(plan_state: dict, losses: list[float]) -> None:
+        save_atomic({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
+                     "rng": rng_state(plan_state, device), "state": state, "run_id": run_id,
+                     "partial_losses": list(losses)}, checkpoint)
 
     for epoch in range(state["epoch"] + 1, (epochs or settings.epochs) + 1):
+        if preemption.stop_reason():  # the last epoch's checkpoint is already on disk
+            raise preemption.request(f"the end of epoch {epoch - 1}")
         start = time.perf_counter()
-        loss = train_epoch(model, optimizer, train_scenes, settings, rng, epoch)
+        plan_state = rng.bit_generator.state  # regenerates this epoch's plan on resumption
+        plan = epoch_plan(train_scenes, settings, rng)
+        loss = train_epoch(model, optimizer, train_scenes, settings, plan, epoch, partial_losses,
+                           device, preemption, lambda losses: save_checkpoint(plan_state, losses))
+        partial_losses = []
         scores = validate(model, val_scenes, settings)
         state["seconds"] += time.perf_counter() - start
         state["history"].append({"epoch": epoch, "train_loss": loss, **scores,
@@ -329,8 +378,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
             save_atomic({"model": model.state_dict(), "config": asdict(model.config),
                          "settings": asdict(settings), "epoch": epoch}, kept_best)
         state["epoch"] = epoch
-        save_atomic({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
-                     "rng": rng_state(rng), "state": state, "run_id": run_id}, checkpoint)
+        save_checkpoint(rng.bit_generator.state, [])
         write_history(state["history"], history_path)
     # DVC deletes the stage's outputs before a re-run, so a run resumed after its last epoch (or
     # after the best epoch) must still deliver them: both come from the checkpoint folder.
@@ -343,6 +391,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
             "val_windows": len(val_arrays)}
 
 
+@exit_when_stopped
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--windows", type=Path, required=True, help="window table (parquet)")
@@ -356,6 +405,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     params = read_params()
     settings = load_profile(YnetSettings, "ynet", params)
+    runtime = load_section(RuntimeParams, "runtime", params)
+    device = select_device(runtime.device)
 
     table = pd.read_parquet(args.windows)
     train_arrays = to_arrays(table[table["split"] == "train"], args.n_past)
@@ -366,8 +417,11 @@ def main(argv: list[str] | None = None) -> None:
     semantic_maps = load_semantic_maps(args.semantic_maps)
     sizes = image_sizes(args.sdd, set(train_arrays.scene_id) | set(val_arrays.scene_id))
     args.history.parent.mkdir(parents=True, exist_ok=True)
-    summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, args.n_past,
-                    args.checkpoint_dir / "last.pt", args.model, args.history)
+    with Preemption(runtime.max_minutes) as preemption:
+        summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, args.n_past,
+                        args.checkpoint_dir / "last.pt", args.model, args.history, device=device,
+                        preemption=preemption)
+    print(f"train_ynet: trained on {describe(device)}")
     summary["profile"] = params["profile"]
     args.metrics.parent.mkdir(parents=True, exist_ok=True)
     tmp = args.metrics.with_name(f".{args.metrics.name}.tmp")

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+from pipeline.device import to_device
 from pipeline.window_table import WindowArrays
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, pad_to_multiple
 
@@ -38,6 +39,13 @@ class SceneWindows:
 
     def subset(self, rows) -> SceneWindows:
         return replace(self, past=self.past[rows], future=self.future[rows], index=self.index[rows])
+
+    def to(self, device: torch.device) -> SceneWindows:
+        """The scene's tensors on `device` (the very same object on the device it is on)."""
+        if self.semantic.device == device:
+            return self
+        return replace(self, semantic=to_device(self.semantic, device),
+                       past=to_device(self.past, device), future=to_device(self.future, device))
 
 
 def resize_semantic(semantic: np.ndarray, height: int, width: int) -> np.ndarray:
@@ -102,7 +110,7 @@ def padded_semantic(semantic: torch.Tensor, padding_class: int | None) -> torch.
     padded = pad_to_multiple(semantic)
     if padding_class is not None:
         height, width = semantic.shape[-2:]
-        outside = torch.ones(padded.shape[-2:], dtype=torch.bool)
+        outside = torch.ones(padded.shape[-2:], dtype=torch.bool, device=padded.device)
         outside[:height, :width] = False
         padded[padding_class][outside] = 1.0
     return padded
@@ -129,7 +137,7 @@ def agent_crops(semantic: torch.Tensor, centres: torch.Tensor, size: int,
     half = size // 2
     padded = F.pad(semantic, (half, size, half, size))  # (C, H + half + size, W + half + size)
     if padding_class is not None:
-        outside = torch.ones(padded.shape[-2:], dtype=torch.bool)
+        outside = torch.ones(padded.shape[-2:], dtype=torch.bool, device=padded.device)
         outside[half:half + height, half:half + width] = False
         padded[padding_class][outside] = 1.0
     origin = torch.round(centres).long() - half  # (B, 2)
@@ -152,7 +160,7 @@ def window_inputs(semantic: torch.Tensor, past: torch.Tensor, max_distance: floa
     """
     if crop == 0:
         inputs = model_input(padded_semantic(semantic, padding_class), past, max_distance)
-        return inputs, torch.zeros(len(past), 2, dtype=past.dtype)
+        return inputs, torch.zeros(len(past), 2, dtype=past.dtype, device=past.device)
     if crop % 32 or max_distance is None:
         raise ValueError(f"crops need a side that is a multiple of 32 and a fixed max_distance, got "
                          f"crop {crop} and max_distance {max_distance}")

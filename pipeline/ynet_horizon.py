@@ -22,9 +22,11 @@ from pathlib import Path
 import pandas as pd
 import torch
 
+from pipeline.device import RuntimeParams, describe, select_device
 from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, evaluate, load_model,
                                     sampling_options, write_json)
 from pipeline.params import load_profile, load_section, read_params
+from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.semantic_maps import load_semantic_maps
 from pipeline.train_ynet import YnetSettings, image_sizes, scale_waypoints, train
 from pipeline.window_table import to_arrays
@@ -61,6 +63,7 @@ def not_run_record(horizon: int, profile: str, params: HorizonParams) -> dict:
     return {"t_f": horizon, "profile": profile, "trained": False, "not_run_reason": reason}
 
 
+@exit_when_stopped
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
@@ -83,6 +86,8 @@ def main(argv: list[str] | None = None) -> None:
     eval_params = load_profile(EvalParams, "eval", params)
     ttst, cws = load_section(TtstParams, "ttst", params), load_section(CwsParams, "cws", params)
     n_past = load_section(WindowParams, "windows", params).n_past
+    runtime = load_section(RuntimeParams, "runtime", params)
+    device = select_device(runtime.device)
 
     table = pd.read_parquet(args.table)
     train_arrays, val_arrays, test_arrays = (to_arrays(table[table["split"] == split], n_past)
@@ -97,10 +102,13 @@ def main(argv: list[str] | None = None) -> None:
     scene_ids = set(train_arrays.scene_id) | set(val_arrays.scene_id) | set(test_arrays.scene_id)
     sizes = image_sizes(args.sdd, scene_ids)
     best = args.checkpoint_dir / "best.pt"
-    summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, n_past,
-                    args.checkpoint_dir / "last.pt", best, args.checkpoint_dir / "history.csv")
+    with Preemption(runtime.max_minutes) as preemption:
+        summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, n_past,
+                        args.checkpoint_dir / "last.pt", best, args.checkpoint_dir / "history.csv",
+                        device=device, preemption=preemption)
 
-    model, settings = load_model(best)
+    model, settings = load_model(best, device)
+    print(f"ynet_horizon: scoring on {describe(device)}")
     torch.set_num_threads(settings.threads)
     scenes = group_by_scene(test_arrays, semantic_maps, sizes, settings.resize)
     options = sampling_options(eval_params.k_e, 1, ttst, cws, True, True)

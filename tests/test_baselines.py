@@ -248,6 +248,7 @@ def test_stages_train_and_evaluate(tmp_path, monkeypatch):
     config = {"sgan": dataclasses.asdict(TINY_SGAN), "pecnet": dataclasses.asdict(TINY_PECNET)}
     params = {
         "profile": "cpu", "windows": {"n_past": N_PAST}, "train_baseline": {"seed": 0, "threads": 1},
+        "runtime": {"device": "cpu", "max_minutes": 0},
         **{m: {"cpu": c, "paper": {**c, "epochs": 99}} for m, c in config.items()},
         "evaluate_baseline": {"k": 3, "split": "test", "rounds": 2, "seed": 0, "threads": 1},
     }
@@ -256,6 +257,7 @@ def test_stages_train_and_evaluate(tmp_path, monkeypatch):
                          "--checkpoint-dir", "ck/pecnet_tf5", "--metrics", "m/train_pecnet_tf5.json"])
     facts = json.loads((tmp_path / "m/train_pecnet_tf5.json").read_text())
     assert facts["n_train"] == 6 and facts["n_val"] == 3 and facts["epochs"] == 2
+    assert facts["device"].startswith("cpu")
     runs = [("pecnet", "5", "tf5", ["--checkpoint-dir", "ck/pecnet_tf5"]),
             ("rpecnet", "7", "tf7", ["--checkpoint-dir", "ck/pecnet_tf5"]),
             ("constant_velocity", "7", "tf7", [])]

@@ -125,7 +125,7 @@ def tiny_params() -> dict:
     pecnet = {**real["pecnet"]["cpu"], "batch_size": 8, "past_hidden": [16], "decoder_hidden": [16],
               "predictor_hidden": [16], "nonlocal_hidden": [8], "nonlocal_dim": 8, "val_k": 2}
     both = lambda section: {"cpu": section, "paper": section}  # noqa: E731
-    return {"profile": "cpu", "short_term": real["short_term"],
+    return {"profile": "cpu", "short_term": real["short_term"], "runtime": real["runtime"],
             "train_baseline": {"seed": 0, "threads": 1}, "ynet": both(ynet),
             "short_term_models": both(short), "sgan": both(sgan), "pecnet": both(pecnet)}
 

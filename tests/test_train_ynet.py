@@ -1,12 +1,18 @@
 """Y-net training and evaluation stages on a tiny synthetic scene."""
 
+import os
+import signal
+
 import numpy as np
 import pytest
 import torch
 
+from pipeline import train_ynet
+
 from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, evaluate, load_model,
                                     sampling_options)
 from pipeline.train_ynet import YnetSettings, run_fingerprint, scale_waypoints, train
+from pipeline.preemption import Preemption, StopRequested
 from pipeline.window_table import WindowArrays
 from pipeline.ynet_data import group_by_scene
 from ynet.heatmaps import upstream_max_distance
@@ -48,6 +54,43 @@ def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
     for name in straight:
         torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)
     assert (tmp_path / "a" / "history.csv").read_text().count("\n") == 3
+
+
+@pytest.mark.parametrize("how", ["sigterm", "budget"])
+def test_stopped_mid_epoch_then_resumed_gives_the_same_weights(tmp_path, monkeypatch, how):
+    """A real SIGTERM (or a spent time budget) in the middle of epoch 2 checkpoints the epoch so
+    far and raises; the next call resumes at that step and ends with the uninterrupted weights."""
+    torch.set_num_threads(1)
+    _, straight = run(tmp_path / "a")
+    steps_per_epoch = 6  # 6 train windows, batches of 2, 2 augmentations
+    losses_seen = []
+    real_loss = train_ynet.ynet_loss
+
+    def loss_then_stop(*args, **kwargs):
+        losses_seen.append(1)
+        if how == "sigterm" and len(losses_seen) == steps_per_epoch + 2:
+            os.kill(os.getpid(), signal.SIGTERM)  # arrives during epoch 2's second step
+        return real_loss(*args, **kwargs)
+
+    monkeypatch.setattr(train_ynet, "ynet_loss", loss_then_stop)
+    # budget: 1 minute, on a clock that jumps 2 minutes once epoch 2 has taken two steps
+    preemption = Preemption(max_minutes=1 if how == "budget" else 0,
+                            clock=lambda: 120.0 * (len(losses_seen) >= steps_per_epoch + 2))
+    folder = tmp_path / "b"
+    with preemption, pytest.raises(StopRequested) as stopped:
+        train(arrays(6, "train", 0), arrays(2, "val", 1), MAPS, SIZES, YnetSettings(**SETTINGS),
+              N_PAST, folder / "last.pt", folder / "best.pt", folder / "history.csv",
+              preemption=preemption)
+    assert stopped.value.exit_code == (143 if how == "sigterm" else 75)
+    saved = torch.load(folder / "last.pt", weights_only=True)
+    assert saved["state"]["epoch"] == 1 and len(saved["partial_losses"]) == 2
+    monkeypatch.undo()
+    summary, resumed = run(folder)
+    assert summary["epochs"] == 2
+    for name in straight:
+        torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)
+    assert ((tmp_path / "a" / "history.csv").read_text().splitlines()[1].split(",")[:2]
+            == (folder / "history.csv").read_text().splitlines()[1].split(",")[:2])
 
 
 def test_a_finished_run_rerun_restores_deleted_outputs(tmp_path):

@@ -147,32 +147,47 @@ def covariance(prob):
     return mean, torch.einsum("hw,hwi,hwj->ij", prob, v, v)
 
 
-@pytest.mark.parametrize("angle_deg", [0.0, 30.0, 90.0, 135.0])
-def test_cws_prior_centred_on_constant_velocity_point_and_long_along_travel(angle_deg):
-    h = w = 160
-    last = torch.tensor([[80.0, 80.0]])
-    a = math.radians(angle_deg)
-    goal = last + 60 * torch.tensor([[[math.cos(a), math.sin(a)]]])  # (1, 1, 2)
+def expected_cws_covariance(direction, sigma, ratio, narrow_along):
+    """The prior's covariance written out by hand: variance a^2 along the unit travel direction u,
+    b^2 across it, so cov = a^2 u u^T + b^2 v v^T with v = u turned by 90 degrees."""
+    u = torch.tensor(direction, dtype=torch.float64)
+    u = u / u.norm()
+    v = torch.stack([-u[1], u[0]])
+    along, across = (sigma / ratio, sigma) if narrow_along else (sigma, sigma / ratio)
+    return along**2 * torch.outer(u, u) + across**2 * torch.outer(v, v)
+
+
+# (travel direction, the covariance of the authors' rot=True prior written out for sigma s, ratio r)
+CWS_CASES = {
+    "along x": ((1.0, 0.0), lambda s, r: [[(s / r) ** 2, 0.0], [0.0, s**2]]),
+    "along y": ((0.0, 1.0), lambda s, r: [[s**2, 0.0], [0.0, (s / r) ** 2]]),
+    "diagonal": ((1.0, 1.0), lambda s, r: [[((s / r) ** 2 + s**2) / 2, ((s / r) ** 2 - s**2) / 2],
+                                           [((s / r) ** 2 - s**2) / 2, ((s / r) ** 2 + s**2) / 2]]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CWS_CASES))
+@pytest.mark.parametrize("rot", [True, False])
+def test_cws_prior_covariance_matches_the_authors_orientation(case, rot):
+    """rot=True: narrow along the direction of travel (sigma / ratio), wide across (sigma), as the
+    authors' SDD config and the paper's text; rot=False: still aligned, the widths swapped."""
+    direction, written_out = CWS_CASES[case]
+    h = w = 200
+    last = torch.tensor([[100.0, 100.0]])
+    unit = torch.tensor(direction) / torch.tensor(direction).norm()
+    goal = (last + 60 * unit)[:, None]  # (1, 1, 2): 60 px of travel
     sigma_factor, ratio = 6.0, 2.0
-    prior = cws_prior(last, goal, 0.5, sigma_factor, ratio, True, h, w)[0, 0]  # (H, W)
+    sigma = (60 + 5) / sigma_factor
+    prior = cws_prior(last, goal, 0.5, sigma_factor, ratio, rot, h, w)[0, 0]  # (H, W)
     assert_close(prior.sum(), torch.tensor(1.0))
     mean, cov = covariance(prior.double())
-    assert_close(mean.float(), ((last[0] + goal[0, 0]) / 2), atol=1e-3, rtol=0)
-    evals, evecs = torch.linalg.eigh(cov)
-    principal = evecs[:, 1].float()  # largest variance
-    assert abs(principal @ torch.tensor([math.cos(a), math.sin(a)])) == pytest.approx(1.0, abs=1e-4)
-    sigma = (60 + 5) / sigma_factor
-    assert math.sqrt(evals[1]) == pytest.approx(sigma, rel=1e-2)
-    assert math.sqrt(evals[0]) == pytest.approx(sigma / ratio, rel=2e-2)
-
-
-def test_cws_prior_without_rotation_is_axis_aligned():
-    last = torch.tensor([[60.0, 60.0]])
-    goal = torch.tensor([[[100.0, 60.0]]])  # travel along x
-    prior = cws_prior(last, goal, 0.5, 6.0, 2.0, False, 120, 120)[0, 0]
-    _, cov = covariance(prior.double())
-    assert abs(cov[0, 1]) < 1e-6
-    assert math.sqrt(cov[1, 1] / cov[0, 0]) == pytest.approx(2.0, rel=1e-2)  # wide in y, narrow in x
+    assert_close(mean.float(), (last[0] + goal[0, 0]) / 2, atol=1e-3, rtol=0)
+    expected = torch.tensor(written_out(sigma, ratio), dtype=torch.float64)
+    if not rot:  # widths swapped: the rot=True covariance with along and across exchanged
+        expected = expected_cws_covariance(direction, sigma, ratio, narrow_along=False)
+    assert_close(expected_cws_covariance(direction, sigma, ratio, narrow_along=rot), expected)
+    # pixel sampling of a continuous Gaussian adds 1/12 px^2 of variance on each axis
+    assert_close(cov, expected + torch.eye(2, dtype=torch.float64) / 12, atol=0.05, rtol=1e-2)
 
 
 def test_cws_flat_waypoint_maps_give_the_prior_means():
@@ -188,6 +203,19 @@ def test_cws_flat_waypoint_maps_give_the_prior_means():
     second = goals + (last[:, None] - goals) / 3
     assert_close(wp[:, :, 1], second, atol=1e-3, rtol=0)
     assert_close(wp[:, :, 0], second + (last[:, None] - second) / 2, atol=1e-3, rtol=0)
+
+
+def test_goals_without_ttst_are_distinct_pixels_ignoring_the_threshold():
+    """Without TTST the authors draw K_e goals without replacement and with no relative threshold:
+    on a map with 3 dominant pixels, 8 goals are 8 different pixels, 5 of them below threshold."""
+    logits = torch.full((1, 1, 16, 16), -20.0)
+    logits[0, 0, [2, 8, 12], [3, 9, 5]] = 20.0
+    options = SamplingOptions(K_e=8, K_a=1, use_ttst=False, use_cws=False, temperature=1.0,
+                              rel_threshold=0.5)
+    goals = sample_waypoints(logits, torch.zeros(1, 2), options, gen(0))[0, :, -1]  # (8, 2)
+    assert len(torch.unique(goals, dim=0)) == 8
+    dominant = {(3.0, 2.0), (9.0, 8.0), (5.0, 12.0)}
+    assert dominant <= {tuple(g.tolist()) for g in goals}
 
 
 @pytest.mark.parametrize(

@@ -29,17 +29,19 @@ class SamplingOptions:
     temperature: float = 1.8
     """Goal/waypoint maps are sigmoid(logits / temperature) before sampling; higher = more diverse."""
     rel_threshold: float = 0.002
-    """Goal pixels below rel_threshold * max are never sampled (outlier suppression)."""
+    """TTST never samples goal pixels below rel_threshold * max (outlier suppression)."""
     use_ttst: bool = True
     """TTST: k-means over many samples. False: the K_e goals are plain draws from the goal map."""
     use_cws: bool = True
     """CWS: waypoints conditioned on the goal. False: each waypoint drawn from its map independently."""
     sigma_factor: float = 6.0
-    """CWS prior width: sigma = (distance + 5) / sigma_factor along the direction of travel."""
+    """CWS prior width: sigma = (distance + 5) / sigma_factor across the direction of travel."""
     ratio: float = 2.0
-    """CWS prior: sigma across the direction of travel is sigma / ratio."""
+    """CWS prior: sigma along the direction of travel is sigma / ratio (with `rot`)."""
     rot: bool = True
-    """CWS prior rotated to the direction of travel; False: axis-aligned (narrow in x, wide in y)."""
+    """True (the authors' SDD config): the prior is narrow along the direction of travel (sigma /
+    ratio) and wide across it (sigma). False: the authors' code still aligns the prior with the
+    travel, the other way round: wide along it (sigma), narrow across (sigma / ratio)."""
     ttst_samples: int = 10_000
     """Points drawn from the goal map for TTST's k-means."""
     kmeans_max_iter: int = 1000
@@ -104,18 +106,19 @@ def sample_positions(
     num_samples: int,
     generator: torch.Generator,
     rel_threshold: float | None = None,
+    replacement: bool = True,
 ) -> torch.Tensor:
-    """Pixels drawn with replacement from non-negative maps: (..., H, W) -> (..., num_samples, 2).
+    """Pixels drawn from non-negative maps: (..., H, W) -> (..., num_samples, 2).
 
     Positions are pixel centres (whole numbers). `rel_threshold` zeroes pixels below that fraction
-    of each map's maximum first.
+    of each map's maximum first. `replacement=False` draws `num_samples` distinct pixels.
     """
     height, width = prob.shape[-2:]
     flat = prob.reshape(-1, height * width)  # (N, H*W)
     if rel_threshold:
         keep = flat >= flat.amax(-1, keepdim=True) * rel_threshold
         flat = torch.where(keep, flat, torch.zeros_like(flat))
-    idx = torch.multinomial(flat, num_samples, replacement=True, generator=generator)  # (N, S)
+    idx = torch.multinomial(flat, num_samples, replacement=replacement, generator=generator)  # (N, S)
     xy = torch.stack([idx % width, torch.div(idx, width, rounding_mode="floor")], dim=-1)
     return xy.to(prob.dtype).reshape(*prob.shape[:-2], num_samples, 2)
 
@@ -128,7 +131,7 @@ def distinct_points(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     rows = [torch.unique(row, dim=0, return_counts=True) for row in points]
     size = max(len(u) for u, _ in rows)
     unique = points[:, :1].repeat(1, size, 1)  # (N, U, 2)
-    weights = torch.zeros(len(rows), size, dtype=points.dtype)  # (N, U)
+    weights = torch.zeros(len(rows), size, dtype=points.dtype, device=points.device)  # (N, U)
     for i, (u, counts) in enumerate(rows):
         unique[i, :len(u)] = u
         weights[i, :len(u)] = counts.to(points.dtype)
@@ -154,10 +157,10 @@ def kmeans(
     points, whose sums are exact in float32).
     """
     n, p, _ = points.shape
-    first = torch.rand(n, p, generator=generator).argsort(dim=-1)[:, :k]  # (N, k) distinct indices
+    first = torch.rand(n, p, generator=generator, device=points.device).argsort(dim=-1)[:, :k]  # (N, k)
     centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))  # (N, k, 2)
     unique, weights = distinct_points(points)  # (N, U, 2), (N, U)
-    active = torch.ones(n, dtype=torch.bool)
+    active = torch.ones(n, dtype=torch.bool, device=points.device)
     for _ in range(max_iter):
         dist = torch.cdist(unique, centres, compute_mode="donot_use_mm_for_euclid_dist")  # (N, U, k)
         owned = F.one_hot(dist.argmin(-1), k).to(points.dtype) * weights[..., None]  # (N, U, k)
@@ -165,7 +168,7 @@ def kmeans(
         new = owned.transpose(1, 2) @ unique / counts.clamp_min(1)[..., None]  # (N, k, 2)
         empty = counts == 0
         if empty.any():
-            restart = torch.randint(p, (n, k), generator=generator)
+            restart = torch.randint(p, (n, k), generator=generator, device=points.device)
             restart = torch.gather(points, 1, restart[..., None].expand(n, k, 2))
             new = torch.where(empty[..., None], restart, new)
         shift = (new - centres).square().sum(-1).sqrt().sum(-1)  # (N,)
@@ -206,26 +209,25 @@ def cws_log_prior(
     """Log of CWS's Gaussian prior, up to a constant: (B, K, H, W).
 
     mean: (B, K, 2) the constant-velocity point; travel: (B, K, 2) last observed position minus the
-    later point (goal or later waypoint); sigma_factor: (K,) per sample. Its standard deviation is
-    sigma = (|travel| + 5) / sigma_factor along the direction of travel and sigma / ratio across it
-    (the "+5" keeps it positive when goal and agent coincide). With `rot=False` the axes stay fixed:
-    sigma along y, sigma / ratio along x. (The authors' code; the paper's text says the opposite
-    orientation, narrow along the travel direction.)
+    later point (goal or later waypoint); sigma_factor: (K,) per sample. With sigma =
+    (|travel| + 5) / sigma_factor (the "+5" keeps it positive when goal and agent coincide), the
+    prior's standard deviation is sigma / ratio along the direction of travel and sigma across it
+    (`rot=True`, the authors' SDD config and the paper's text: the waypoint's progress along the
+    path is pinned down, its sideways offset left to the waypoint map). `rot=False` does what the
+    authors' code does with that flag: the same axes, the widths swapped (sigma along, sigma / ratio
+    across). A zero travel takes the y axis as its direction.
     """
     ys, xs = _coords(height, width, mean)
     sigma = (travel.norm(dim=-1) + 5.0) / sigma_factor  # (B, K)
-    if rot:
-        # angle from the y axis, as upstream: travel = 0 gives the unrotated prior
-        angle = torch.atan2(travel[..., 0], travel[..., 1])
-        ux, uy = torch.sin(angle), torch.cos(angle)  # (B, K) unit direction of travel
-    else:
-        ux, uy = torch.zeros_like(sigma), torch.ones_like(sigma)
+    angle = torch.atan2(travel[..., 0], travel[..., 1])  # from the y axis: zero travel -> (0, 1)
+    ux, uy = torch.sin(angle), torch.cos(angle)  # (B, K) unit direction of travel
     vx = (xs - mean[..., 0, None])[..., None, :]  # (B, K, 1, W)
     vy = (ys - mean[..., 1, None])[..., :, None]  # (B, K, H, 1)
     along = vx * ux[..., None, None] + vy * uy[..., None, None]  # (B, K, H, W)
     across = vy * ux[..., None, None] - vx * uy[..., None, None]
-    s_along = sigma[..., None, None]
-    s_across = s_along / ratio
+    wide = sigma[..., None, None]
+    narrow = wide / ratio
+    s_along, s_across = (narrow, wide) if rot else (wide, narrow)
     return -0.5 * ((along / s_along).square() + (across / s_across).square())
 
 
@@ -245,7 +247,7 @@ def cws_prior(
     """
     travel = last_observed[:, None] - later  # (B, K, 2)
     mean = later + travel * fraction
-    factor = torch.full((later.shape[1],), float(sigma_factor), dtype=later.dtype)
+    factor = torch.full((later.shape[1],), float(sigma_factor), dtype=later.dtype, device=later.device)
     logp = cws_log_prior(mean, travel, factor, ratio, rot, height, width)
     return torch.softmax(logp.flatten(-2), -1).view_as(logp)
 
@@ -272,7 +274,8 @@ def cws_waypoints(
     log_maps = F.logsigmoid(waypoint_logits / options.temperature)  # (B, n_w, H, W)
     paths = []
     for a, path_goals in enumerate(goals.split(options.K_e, dim=1)):  # each (B, K_e, 2)
-        sigma_factor = torch.full((path_goals.shape[1],), options.sigma_factor - a, dtype=goals.dtype)
+        sigma_factor = torch.full((path_goals.shape[1],), options.sigma_factor - a, dtype=goals.dtype,
+                                  device=goals.device)
         chosen = [path_goals]
         later = path_goals
         for i in reversed(range(n_w - 1)):
@@ -300,15 +303,15 @@ def sample_waypoints(
 ) -> torch.Tensor:
     """Goals and waypoints for every sample: (B, n_w, H, W) logits, goal last -> (B, K_e*K_a, n_w, 2).
 
-    Goals: TTST, or plain draws from sigmoid(goal / T) above rel_threshold. Waypoints: CWS, or one
+    Goals: TTST, or K_e distinct pixels drawn from sigmoid(goal / T). Waypoints: CWS, or one
     independent draw per sample from each sigmoid(waypoint / T) map.
     """
     b, n_w, height, width = waypoint_logits.shape
     if options.use_ttst:
         goals = ttst_goals(waypoint_logits[:, -1], options, generator)  # (B, K_e, 2)
-    else:
+    else:  # as the authors: K_e distinct pixels, no relative threshold
         prob = torch.sigmoid(waypoint_logits[:, -1] / options.temperature)
-        goals = sample_positions(prob, options.K_e, generator, options.rel_threshold)
+        goals = sample_positions(prob, options.K_e, generator, replacement=False)
     goals = goals.repeat(1, options.K_a, 1)  # (B, K, 2), path-major
     if n_w == 1:
         return goals[:, :, None]
@@ -340,8 +343,8 @@ def predict(
     `ynet.model.shared_input_conv`), and only each heatmap's softargmax is kept. Everything runs in
     channels_last (about 1.5x faster convs on CPU).
 
-    `bf16=True` runs the trajectory decoder (85% of the time) under bfloat16 autocast: about 1.6x
-    faster on CPUs with AMX / AVX512-BF16. Encoder, goal decoder and sampling stay float32, so goals
+    `bf16=True` runs the trajectory decoder (85% of the time) under bfloat16 autocast (on the
+    inputs' device): about 1.5x faster on CPUs with AMX / AVX512-BF16, and what GPUs want. Encoder, goal decoder and sampling stay float32, so goals
     and waypoints (and FDE) are bit-identical to float32; trajectory positions move by a fraction
     of a pixel (0.01 px mean, 0.04 px max on an overfitted tiny model like the tests').
     """
@@ -358,7 +361,7 @@ def predict(
             chunk = samples[:, start : start + chunk_size]  # (B, k, n_w, 2)
             maps = distance_maps(chunk.flatten(1, 2), height, width, max_distance)  # (B, k*n_w, H, W)
             maps = maps.unflatten(1, chunk.shape[1:3])  # (B, k, n_w, H, W)
-            with torch.autocast("cpu", dtype=torch.bfloat16, enabled=bf16):
+            with torch.autocast(x.device.type, dtype=torch.bfloat16, enabled=bf16):
                 logits = model.predict_trajectory(features, maps)  # (B, k, n_f, H, W)
             steps.append(softargmax(logits.float()))  # (B, k, n_f, 2)
         trajectory = torch.cat(steps, dim=1)  # (B, K, n_f, 2)

@@ -2,10 +2,12 @@
 
 Every baseline class has
 - `name` (its registry key), `trainable`, `config_class` (the dataclass of its settings, or None);
-- `fit(train, val, config, checkpoint_dir, seed) -> model` (trainable ones): trains, keeps the
-  epoch that is best on `val`, checkpoints every epoch and resumes from `checkpoint_dir`;
-- `load(checkpoint_dir) -> model`: the kept weights of a finished `fit`;
-- `model.predict(arrays, k, generator) -> (N, k, n_f, 2)` sampled futures in original pixels.
+- `fit(train, val, config, checkpoint_dir, seed, device=cpu, preemption=NEVER) -> model`
+  (trainable ones): trains on `device`, keeps the epoch that is best on `val`, checkpoints every
+  epoch (and mid-epoch when `preemption` stops it) and resumes from `checkpoint_dir`;
+- `load(checkpoint_dir, device=cpu) -> model`: the kept weights of a finished `fit`, on `device`;
+- `model.predict(arrays, k, generator) -> (N, k, n_f, 2)` sampled futures in original pixels
+  (random draws on `generator`'s device: `pipeline.device.generator(device, seed)`).
 
 | name              | what                                                        | trained per horizon |
 |-------------------|-------------------------------------------------------------|---------------------|

@@ -7,11 +7,24 @@ first frames mean equal frames at every step). Social pooling only ever mixes wi
 
 Checkpoints (one directory per trained model):
 - `last.pt`: everything needed to resume: module and optimizer state_dicts, RNG states, the epoch
-  history, the best epoch so far. Written at the end of every epoch.
+  history, the best epoch so far. Written at the end of every epoch, and in the middle of one when
+  training is preempted (SIGTERM / SIGINT, or the `runtime.max_minutes` budget: see
+  `pipeline.preemption`); then its `partial` entry holds where that epoch stands (see
+  `run_training`), and the next call continues at exactly that batch.
 - `best.pt`: the module state_dicts of the epoch with the lowest validation error, the config and
   what the model needs to predict (n_past, n_future). What evaluation loads.
 Both are written to a temporary file and renamed, so an interruption never leaves a torn file, and
-both hold only tensors and plain Python values (loaded with `weights_only=True`).
+both hold only tensors (module weights always as CPU tensors) and plain Python values (loaded with
+`weights_only=True` and a `map_location`), so a checkpoint written on a GPU loads on a CPU.
+
+Devices: every model takes a `device`; modules live there, batches are built on the CPU and moved
+with `pipeline.device.to_device`, and random draws are made on the device of the generator they
+come from, then moved (so a CUDA model also accepts a CPU generator, and a CPU run draws exactly the
+numbers it always drew). No autocast: these are small MLPs and LSTMs (widths <= 1024, batches <= 512
+windows, LSTM steps one at a time), whose GPU time goes to kernel launches and Python rather than
+matmul throughput, so bfloat16 would add cast kernels and cost the KL and variety losses precision
+for little if any speed-up (an expectation, not measured: no GPU was at hand). TF32 matmuls come
+from `pipeline.device.select_device`.
 """
 
 from __future__ import annotations
@@ -33,9 +46,16 @@ import torch
 from torch import nn
 from tqdm import tqdm
 
+from pipeline.device import generator as seeded_generator
+from pipeline.device import to_device
+from pipeline.preemption import NEVER, Preemption
 from pipeline.window_table import WindowArrays, to_arrays
 
-CHECKPOINT_FORMAT = 1
+CPU = torch.device("cpu")
+CHECKPOINT_FORMAT = 2
+# Format 1 (before mid-epoch checkpoints) is format 2 without `partial`, `rng_device` and the CUDA
+# RNG state: it was always written on the CPU at the end of an epoch, and resumes as such.
+READABLE_FORMATS = (1, 2)
 LAST = "last.pt"
 BEST = "best.pt"
 
@@ -61,8 +81,8 @@ def group_batches(groups: np.ndarray, batch_size: int,
     pool with each other).
     """
     order = np.unique(groups)
-    if generator is not None:
-        order = order[torch.randperm(len(order), generator=generator).numpy()]
+    if generator is not None:  # drawn on the generator's device (one small copy back per epoch)
+        order = order[torch.randperm(len(order), generator=generator, device=generator.device).cpu().numpy()]
     members = _group_members(groups)
     batches, current, size = [], [], 0
     for g in order:
@@ -142,13 +162,20 @@ def mlp(sizes: list[int], activation: type[nn.Module] = nn.ReLU, last_activation
 # Seeds and checkpoints
 
 
-def seed_everything(seed: int) -> torch.Generator:
-    """Seed Python, numpy and torch's global RNGs; return a torch.Generator seeded with `seed`
-    that the training loop draws all its randomness from (shuffling, noise, latents)."""
+def seed_everything(seed: int, device: torch.device = CPU) -> torch.Generator:
+    """Seed Python, numpy and torch's global RNGs (CPU and CUDA); return a torch.Generator on
+    `device` seeded with `seed` that the training loop draws all its randomness from (shuffling,
+    noise, latents). On the CPU it is the generator the CPU runs have always used."""
     random.seed(seed)
     np.random.seed(seed)
     torch.manual_seed(seed)
-    return torch.Generator().manual_seed(seed)
+    return seeded_generator(device, seed)
+
+
+def as_input(values: np.ndarray, device: torch.device, dtype: torch.dtype | None = None) -> torch.Tensor:
+    """A numpy array as a tensor on `device`: made on the CPU, then moved with `to_device` (pinned,
+    non-blocking to CUDA; the very same tensor on the CPU)."""
+    return to_device(torch.as_tensor(values, dtype=dtype, device=CPU), device)
 
 
 def save_atomic(obj: Any, path: Path) -> None:
@@ -160,11 +187,13 @@ def save_atomic(obj: Any, path: Path) -> None:
     os.replace(tmp, path)
 
 
-def load_checkpoint(path: Path) -> dict[str, Any]:
-    """A checkpoint written by `run_training` (tensors and plain values only)."""
-    state = torch.load(Path(path), map_location="cpu", weights_only=True)
-    if state.get("format") != CHECKPOINT_FORMAT:
-        raise ValueError(f"{path}: checkpoint format {state.get('format')}, expected {CHECKPOINT_FORMAT}")
+def load_checkpoint(path: Path, map_location: torch.device | str = "cpu") -> dict[str, Any]:
+    """A checkpoint written by `run_training` (tensors and plain values only), its tensors on
+    `map_location`. Keep the default for a `last.pt` that resumes training: RNG states must be CPU
+    tensors."""
+    state = torch.load(Path(path), map_location=map_location, weights_only=True)
+    if state.get("format") not in READABLE_FORMATS:
+        raise ValueError(f"{path}: checkpoint format {state.get('format')}, expected one of {READABLE_FORMATS}")
     return state
 
 
@@ -188,7 +217,9 @@ def run_training(
     name: str,
     modules: dict[str, nn.Module],
     optimizers: dict[str, torch.optim.Optimizer],
-    train_epoch: Callable[[int], dict[str, float]],
+    epoch_batches: Callable[[int], list[np.ndarray]],
+    train_batch: Callable[[np.ndarray], np.ndarray],
+    loss_names: tuple[str, ...],
     validate: Callable[[], float],
     epochs: int,
     config: dict[str, Any],
@@ -196,21 +227,32 @@ def run_training(
     data_fingerprint: str,
     checkpoint_dir: Path,
     generator: torch.Generator,
+    device: torch.device = CPU,
+    preemption: Preemption = NEVER,
 ) -> FitResult:
     """The epoch loop every trained baseline uses: resume, train, validate, checkpoint, keep best.
 
-    train_epoch(epoch) trains one epoch (drawing randomness from `generator` only) and returns
-    mean losses; validate() returns the validation error (lower is better) without touching
-    `generator`. On return the modules hold the best epoch's weights.
+    epoch_batches(epoch) draws the epoch's batches (window indices; from `generator` only);
+    train_batch(index) makes one optimiser step on one of them (drawing randomness from `generator`
+    only) and returns its losses, named `loss_names`, whose means over the epoch go to the history;
+    validate() returns the validation error (lower is better) without touching `generator`. On
+    return the modules hold the best epoch's weights. The modules live on `device`, `generator`
+    too (its state must be restored on the same kind of device).
 
     Resuming: a `last.pt` of the same data (`data_fingerprint`: windows and seed) and the same
-    config (up to `epochs`, which may only grow) is continued after its last finished epoch, and ends
-    exactly where an uninterrupted run would. Any other `last.pt` is stale (the settings or the
-    data changed, as when DVC re-runs the stage): training starts afresh and overwrites it.
+    config (up to `epochs`, which may only grow) is continued where it stopped, and ends exactly
+    where an uninterrupted run would. Any other `last.pt` is stale (the settings or the data
+    changed, as when DVC re-runs the stage): training starts afresh and overwrites it.
+
+    Preemption: before every optimiser step (and after an epoch's last one) the loop polls
+    `preemption.stop_reason()`; when it is set, `last.pt` gets a `partial` entry (the epoch, the
+    index of the next batch, the epoch's batches as drawn and its running loss sums), next to the
+    modules, optimizers and RNG states as they are at that point, and `preemption.request(...)` is
+    raised.
     """
     checkpoint_dir = Path(checkpoint_dir)
     checkpoint_dir.mkdir(parents=True, exist_ok=True)
-    start, best_epoch, best_val, history, seconds = 0, -1, float("inf"), [], 0.0
+    start, best_epoch, best_val, history, seconds, partial = 0, -1, float("inf"), [], 0.0, None
     state = _resumable_state(checkpoint_dir / LAST, config, data_fingerprint)
     if state is None:  # nothing stale may survive a fresh start
         for stale in (LAST, BEST):
@@ -220,16 +262,42 @@ def run_training(
             module.load_state_dict(state["modules"][key])
         for key, opt in optimizers.items():
             opt.load_state_dict(state["optimizers"][key])
-        generator.set_state(state["rng"]["generator"])
-        torch.set_rng_state(state["rng"]["torch"])
+        _restore_rng(state, generator, device, checkpoint_dir / LAST)
         start, best_epoch, best_val = state["epoch"] + 1, state["best_epoch"], state["best_val"]
-        history, seconds = list(state["history"]), state["train_seconds"]
+        history, seconds, partial = list(state["history"]), state["train_seconds"], state.get("partial")
+
+    def save_last(epoch_done: int, partial_state: dict[str, Any] | None) -> None:
+        save_atomic({
+            "format": CHECKPOINT_FORMAT, "config": config, "meta": meta, "epoch": epoch_done,
+            "data_fingerprint": data_fingerprint,
+            "best_epoch": best_epoch, "best_val": best_val, "history": history,
+            "train_seconds": seconds, "modules": _state_dicts(modules),
+            "optimizers": {k: o.state_dict() for k, o in optimizers.items()},
+            "rng": _rng_state(generator, device), "rng_device": generator.device.type,
+            "partial": partial_state,
+        }, checkpoint_dir / LAST)
+
     bar = tqdm(range(start, epochs), desc=f"train {name}", initial=start, total=epochs, leave=False)
     for epoch in bar:
         t0 = time.perf_counter()
+        if partial is not None:  # the epoch a preempted run stopped in, as it stood then
+            batches = [b.numpy() for b in partial["batches"]]
+            first, totals = partial["next_batch"], partial["loss_sums"].numpy().copy()
+            partial = None
+        else:
+            batches, first, totals = epoch_batches(epoch), 0, np.zeros(len(loss_names))
         for module in modules.values():
             module.train()
-        losses = train_epoch(epoch)
+        for i in range(first, len(batches) + 1):
+            if preemption.stop_reason() is not None:
+                seconds += time.perf_counter() - t0
+                save_last(epoch - 1, {"epoch": epoch, "next_batch": i,
+                                      "batches": [torch.from_numpy(np.asarray(b, np.int64)) for b in batches],
+                                      "loss_sums": torch.from_numpy(totals.copy())})
+                raise preemption.request(f"epoch {epoch}, batch {i} of {len(batches)}")
+            if i < len(batches):
+                totals += train_batch(batches[i])
+        losses = dict(zip(loss_names, (totals / len(batches)).tolist(), strict=True))
         for module in modules.values():
             module.eval()
         with torch.no_grad():
@@ -240,18 +308,11 @@ def run_training(
             best_epoch, best_val = epoch, val
             save_atomic({"format": CHECKPOINT_FORMAT, "config": config, "meta": meta, "epoch": epoch,
                          "val_ade": val, "modules": _state_dicts(modules)}, checkpoint_dir / BEST)
-        save_atomic({
-            "format": CHECKPOINT_FORMAT, "config": config, "meta": meta, "epoch": epoch,
-            "data_fingerprint": data_fingerprint,
-            "best_epoch": best_epoch, "best_val": best_val, "history": history,
-            "train_seconds": seconds, "modules": _state_dicts(modules),
-            "optimizers": {k: o.state_dict() for k, o in optimizers.items()},
-            "rng": {"generator": generator.get_state(), "torch": torch.get_rng_state()},
-        }, checkpoint_dir / LAST)
+        save_last(epoch, None)
         bar.set_postfix(val_ade=f"{val:.1f}", best=f"{best_val:.1f}@{best_epoch}")
     if best_epoch < 0:
         raise ValueError(f"{name}: no epoch trained (epochs = {epochs})")
-    best = load_checkpoint(checkpoint_dir / BEST)
+    best = load_checkpoint(checkpoint_dir / BEST, map_location=device)
     for key, module in modules.items():
         module.load_state_dict(best["modules"][key])
         module.eval()
@@ -260,7 +321,36 @@ def run_training(
 
 
 def _state_dicts(modules: dict[str, nn.Module]) -> dict[str, dict[str, torch.Tensor]]:
-    return {k: {n: t.detach().clone() for n, t in m.state_dict().items()} for k, m in modules.items()}
+    """Copies of the modules' state_dicts as CPU tensors (a GPU run's checkpoint loads anywhere)."""
+    return {k: {n: t.detach().to(CPU, copy=True) for n, t in m.state_dict().items()}
+            for k, m in modules.items()}
+
+
+def _rng_state(generator: torch.Generator, device: torch.device) -> dict[str, torch.Tensor]:
+    """The training generator's state, torch's global CPU RNG and, on CUDA, the device's own."""
+    state = {"generator": generator.get_state(), "torch": torch.get_rng_state()}
+    if device.type == "cuda":
+        state["cuda"] = torch.cuda.get_rng_state(device)
+    return state
+
+
+def _restore_rng(state: dict[str, Any], generator: torch.Generator, device: torch.device, path: Path) -> None:
+    """Put back the RNG states of a `last.pt`. A generator state only fits a generator of the
+    same device type: resumed on another kind of device, the weights, optimizers and position
+    carry over and the training generator is re-seeded from the saved state (deterministic, but
+    not the numbers an uninterrupted run would have drawn; nor are another device's kernels)."""
+    rng = state["rng"]
+    saved_on = state.get("rng_device", "cpu")  # format 1: always the CPU
+    if saved_on == generator.device.type:
+        generator.set_state(rng["generator"])
+    else:
+        seed = int.from_bytes(hashlib.sha256(rng["generator"].numpy().tobytes()).digest()[:8], "little")
+        generator.manual_seed(seed)
+        tqdm.write(f"{path}: written on {saved_on}, resuming on {generator.device.type}: the training "
+                   "generator restarts from a seed derived from its saved state")
+    torch.set_rng_state(rng["torch"])
+    if device.type == "cuda" and "cuda" in rng:
+        torch.cuda.set_rng_state(rng["cuda"], device)
 
 
 def _resumable_state(path: Path, config: dict[str, Any], data_fingerprint: str) -> dict[str, Any] | None:
@@ -272,7 +362,9 @@ def _resumable_state(path: Path, config: dict[str, Any], data_fingerprint: str) 
                      if k not in RESUMABLE_CHANGES and state["config"].get(k) != config.get(k))
     if state.get("data_fingerprint") != data_fingerprint:
         changed.append("training data or seed")
-    if state["epoch"] + 1 > config.get("epochs", 0):
+    partial = state.get("partial")
+    reached = partial["epoch"] if partial is not None else state["epoch"]  # last epoch begun
+    if reached + 1 > config.get("epochs", 0):
         changed.append("epochs (fewer than already trained)")
     if changed:
         tqdm.write(f"{path}: trained with other {', '.join(changed)}; starting afresh")

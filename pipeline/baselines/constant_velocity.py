@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from pipeline.preemption import Preemption
 from pipeline.window_table import WindowArrays
 
 
@@ -36,11 +37,13 @@ class ConstantVelocity:
 
     @classmethod
     def fit(cls, train: WindowArrays, val: WindowArrays, config: ConstantVelocityConfig,
-            checkpoint_dir: Path | None = None, seed: int = 0) -> ConstantVelocity:
+            checkpoint_dir: Path | None = None, seed: int = 0, device: torch.device | None = None,
+            preemption: Preemption | None = None) -> ConstantVelocity:
         return cls()
 
     @classmethod
-    def load(cls, checkpoint_dir: Path | None = None) -> ConstantVelocity:
+    def load(cls, checkpoint_dir: Path | None = None, device: torch.device | None = None) -> ConstantVelocity:
+        """`device` is taken for a uniform interface: the extrapolation is numpy, on the CPU."""
         return cls()
 
     def predict(self, arrays: WindowArrays, k: int, generator: torch.Generator | None = None,

@@ -35,8 +35,11 @@ import torch.nn.functional as F
 from torch import nn
 
 from pipeline.baselines import common
-from pipeline.baselines.common import FitResult, mlp
+from pipeline.baselines.common import CPU, FitResult, as_input, mlp
+from pipeline.device import generator as seeded_generator
+from pipeline.device import to_device
 from pipeline.metrics import window_errors
+from pipeline.preemption import NEVER, Preemption
 from pipeline.window_table import WindowArrays
 
 
@@ -185,16 +188,16 @@ class Batch:
 
 
 def make_batch(past: np.ndarray, groups: np.ndarray, config: PecnetConfig,
-               future: np.ndarray | None = None) -> Batch:
-    """past (B, n_p, 2), future (B, n_f, 2) in pixels."""
+               future: np.ndarray | None = None, device: torch.device = CPU) -> Batch:
+    """past (B, n_p, 2), future (B, n_f, 2) in pixels; tensors on `device`."""
     origin = past[:, 0]  # (B, 2)
-    mask = common.neighbour_mask(torch.as_tensor(groups), torch.as_tensor(past), config.neighbour_radius)
+    mask = common.neighbour_mask(as_input(groups, device), as_input(past, device), config.neighbour_radius)
 
     def norm(xy: np.ndarray) -> torch.Tensor:
-        return torch.as_tensor((xy - origin[:, None]) * config.data_scale, dtype=torch.float32)
+        return as_input((xy - origin[:, None]) * config.data_scale, device, torch.float32)
 
     batch = Batch(past=norm(past).flatten(1), mask=mask, origin=origin,
-                  position=torch.as_tensor(past[:, -1] / config.position_scale, dtype=torch.float32))
+                  position=as_input(past[:, -1] / config.position_scale, device, torch.float32))
     if future is not None:
         fut = norm(future)  # (B, n_f, 2)
         batch.endpoint, batch.path = fut[:, -1], fut[:, :-1]
@@ -226,20 +229,22 @@ class Pecnet:
     config_class = PecnetConfig
     trainable = True
 
-    def __init__(self, config: PecnetConfig, n_past: int, n_future: int):
+    def __init__(self, config: PecnetConfig, n_past: int, n_future: int, device: torch.device = CPU):
         if n_future < 2:
             raise ValueError("PECNet predicts an endpoint and a path: n_future must be >= 2")
         self.config, self.n_past, self.n_future = config, n_past, n_future
-        self.net = PecnetNet(config, n_past, n_future)
+        self.device = torch.device(device)
+        # Initialised on the CPU (torch's global RNG), then moved: the same weights on any device.
+        self.net = PecnetNet(config, n_past, n_future).to(self.device)
         self.fit_result: FitResult | None = None  # set by fit
 
     @classmethod
-    def fit(cls, train: WindowArrays, val: WindowArrays, config: PecnetConfig,
-            checkpoint_dir: Path, seed: int) -> Pecnet:
+    def fit(cls, train: WindowArrays, val: WindowArrays, config: PecnetConfig, checkpoint_dir: Path,
+            seed: int, device: torch.device = CPU, preemption: Preemption = NEVER) -> Pecnet:
         if len(train) == 0 or len(val) == 0:
             raise ValueError("PECNet needs training and validation windows")
-        rng = common.seed_everything(seed)
-        model = cls(config, train.past.shape[1], train.future.shape[1])
+        rng = common.seed_everything(seed, device)
+        model = cls(config, train.past.shape[1], train.future.shape[1], device)
         common.check_windows(val, model.n_past, model.n_future, "validation windows")
         optimizer = torch.optim.Adam(model.net.parameters(), lr=config.learning_rate)
         groups = common.co_occurrence_groups(train)
@@ -248,30 +253,31 @@ class Pecnet:
         else:
             past, future = train.past, train.future
 
-        def train_epoch(epoch: int) -> dict[str, float]:
-            totals = np.zeros(3)
-            batches = common.group_batches(groups, config.batch_size, rng)
-            for index in batches:
-                batch = make_batch(past[index], groups[index], config, future[index])
-                totals += model.train_step(batch, optimizer, rng)
-            return dict(zip(("loss_endpoint", "loss_kl", "loss_path"), (totals / len(batches)).tolist()))
+        def epoch_batches(epoch: int) -> list[np.ndarray]:
+            return common.group_batches(groups, config.batch_size, rng)
+
+        def train_batch(index: np.ndarray) -> np.ndarray:
+            batch = make_batch(past[index], groups[index], config, future[index], device)
+            return model.train_step(batch, optimizer, rng)
 
         def validate() -> float:
-            pred = model.predict(val, config.val_k, torch.Generator().manual_seed(seed + 1))
+            pred = model.predict(val, config.val_k, seeded_generator(device, seed + 1))
             return float(window_errors(pred, val.future).ade.mean())
 
         model.fit_result = common.run_training(
             name=cls.name, modules={"net": model.net}, optimizers={"net": optimizer},
-            train_epoch=train_epoch, validate=validate, epochs=config.epochs,
-            config=dataclasses.asdict(config),
+            epoch_batches=epoch_batches, train_batch=train_batch,
+            loss_names=("loss_endpoint", "loss_kl", "loss_path"), validate=validate,
+            epochs=config.epochs, config=dataclasses.asdict(config),
             meta={"n_past": model.n_past, "n_future": model.n_future, "seed": seed},
             data_fingerprint=common.fingerprint(seed, train, val),
-            checkpoint_dir=checkpoint_dir, generator=rng)
+            checkpoint_dir=checkpoint_dir, generator=rng, device=device, preemption=preemption)
         return model
 
     def train_step(self, batch: Batch, optimizer: torch.optim.Optimizer, rng: torch.Generator) -> np.ndarray:
         """One Adam step; returns [endpoint MSE, KL, path MSE]."""
-        eps = torch.randn(len(batch.past), self.config.latent_dim, generator=rng)
+        eps = to_device(torch.randn(len(batch.past), self.config.latent_dim, generator=rng, device=rng.device),
+                        batch.past.device)
         endpoint, path, mu, logvar = self.net(batch.past, batch.position, batch.mask, batch.endpoint, eps)
         loss_endpoint = F.mse_loss(endpoint, batch.endpoint)
         loss_kl = kl_divergence(mu, logvar)
@@ -283,9 +289,10 @@ class Pecnet:
         return np.array([loss_endpoint.item(), loss_kl.item(), loss_path.item()])
 
     @classmethod
-    def load(cls, checkpoint_dir: Path) -> Pecnet:
-        state = common.load_checkpoint(Path(checkpoint_dir) / common.BEST)
-        model = cls(PecnetConfig(**state["config"]), state["meta"]["n_past"], state["meta"]["n_future"])
+    def load(cls, checkpoint_dir: Path, device: torch.device = CPU) -> Pecnet:
+        state = common.load_checkpoint(Path(checkpoint_dir) / common.BEST, map_location=device)
+        model = cls(PecnetConfig(**state["config"]), state["meta"]["n_past"], state["meta"]["n_future"],
+                    device)
         model.net.load_state_dict(state["modules"]["net"])
         model.net.eval()
         return model
@@ -294,18 +301,23 @@ class Pecnet:
     def sample(self, past: np.ndarray, groups: np.ndarray, k: int, generator: torch.Generator,
                batch_size: int = 1024) -> np.ndarray:
         """K sampled futures (N, k, n_f, 2) in pixels of observed tracks past (N, n_p, 2);
-        windows with equal `groups` co-occur (pool with each other)."""
+        windows with equal `groups` co-occur (pool with each other). z is drawn on `generator`'s
+        device."""
         if past.ndim != 3 or past.shape[1:] != (self.n_past, 2):
             raise ValueError(f"PECNet takes (N, {self.n_past}, 2) observed tracks, got {past.shape}")
         self.net.eval()
         out = np.zeros((len(past), k, self.n_future, 2))
         for index in common.group_batches(groups, batch_size):
-            batch = make_batch(past[index], groups[index], self.config)
-            for s in range(k):
-                z = self.config.sigma * torch.randn(len(index), self.config.latent_dim, generator=generator)
+            batch = make_batch(past[index], groups[index], self.config, device=self.device)
+            samples = []
+            for _ in range(k):
+                z = self.config.sigma * to_device(
+                    torch.randn(len(index), self.config.latent_dim, generator=generator, device=generator.device),
+                    self.device)
                 endpoint, path, _, _ = self.net(batch.past, batch.position, batch.mask, z=z)
-                future = torch.cat([path, endpoint[:, None]], dim=1).double().numpy()  # (B, n_f, 2)
-                out[index, s] = future / self.config.data_scale + batch.origin[:, None]
+                samples.append(torch.cat([path, endpoint[:, None]], dim=1))  # (B, n_f, 2)
+            future = torch.stack(samples, dim=1).double().cpu().numpy()  # (B, k, n_f, 2): one copy back
+            out[index] = future / self.config.data_scale + batch.origin[:, None, None]
         return out
 
     def predict(self, arrays: WindowArrays, k: int, generator: torch.Generator) -> np.ndarray:

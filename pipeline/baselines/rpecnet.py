@@ -12,7 +12,8 @@ sample path (never a mix of different samples' pieces), and the cost is K x roun
 prune back to K.) Social pooling inside a round mixes chain k of co-occurring agents only with
 chain k of their neighbours: their positions in the same imagined future.
 
-Nothing is trained here: `load` takes the checkpoint directory of the t_f = 5 PECNet.
+Nothing is trained here: `load` takes the checkpoint directory of the t_f = 5 PECNet. The rollout
+itself is numpy between rounds (the tracks are short); each round runs on the PECNet's device.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 import torch
 
 from pipeline.baselines import common
+from pipeline.baselines.common import CPU
 from pipeline.baselines.pecnet import Pecnet
 from pipeline.window_table import WindowArrays
 
@@ -56,9 +58,9 @@ class RecurrentPecnet:
         self.model = model
 
     @classmethod
-    def load(cls, checkpoint_dir: Path) -> RecurrentPecnet:
-        """The PECNet of `checkpoint_dir` (trained for t_f = 5 s in the benchmark)."""
-        return cls(Pecnet.load(checkpoint_dir))
+    def load(cls, checkpoint_dir: Path, device: torch.device = CPU) -> RecurrentPecnet:
+        """The PECNet of `checkpoint_dir` (trained for t_f = 5 s in the benchmark), on `device`."""
+        return cls(Pecnet.load(checkpoint_dir, device))
 
     def predict(self, arrays: WindowArrays, k: int, generator: torch.Generator,
                 n_future: int | None = None) -> np.ndarray:

@@ -28,8 +28,11 @@ import torch.nn.functional as F
 from torch import nn
 
 from pipeline.baselines import common
-from pipeline.baselines.common import FitResult, mlp
+from pipeline.baselines.common import CPU, FitResult, as_input, mlp
+from pipeline.device import generator as seeded_generator
+from pipeline.device import to_device
 from pipeline.metrics import window_errors
+from pipeline.preemption import NEVER, Preemption
 from pipeline.window_table import WindowArrays
 
 
@@ -201,28 +204,34 @@ class Batch:
     n_groups: int
 
 
-def make_batch(past: np.ndarray, future: np.ndarray, groups: np.ndarray, scale: float) -> Batch:
-    """past (B, n_p, 2), future (B, n_f, 2) in pixels (future may be all zeros at test time)."""
+def make_batch(past: np.ndarray, future: np.ndarray, groups: np.ndarray, scale: float,
+               device: torch.device = CPU) -> Batch:
+    """past (B, n_p, 2), future (B, n_f, 2) in pixels (future may be all zeros at test time);
+    tensors on `device`."""
     track = np.concatenate([past, future], axis=1) / scale  # (B, T, 2)
-    rel = torch.as_tensor(np.diff(track, axis=1), dtype=torch.float32)  # (B, T-1, 2)
+    rel = as_input(np.diff(track, axis=1), device, torch.float32)  # (B, T-1, 2)
     n_p = past.shape[1]
     _, local = np.unique(groups, return_inverse=True)
-    group = torch.as_tensor(local)
+    group = torch.as_tensor(local, device=CPU)
     pairs = (group[:, None] == group[None, :]).nonzero()  # (P, 2), S-GAN pools over the whole group
     return Batch(past_rel=rel[:, : n_p - 1], future_rel=rel[:, n_p - 1:],
-                 position=torch.as_tensor(track[:, n_p - 1], dtype=torch.float32), pairs=pairs,
-                 group=group, last_px=past[:, -1], n_groups=int(local.max()) + 1)
+                 position=as_input(track[:, n_p - 1], device, torch.float32),
+                 pairs=to_device(pairs, device), group=to_device(group, device), last_px=past[:, -1],
+                 n_groups=int(local.max()) + 1)
 
 
 def global_noise(batch: Batch, n_samples: int, dim: int, generator: torch.Generator) -> torch.Tensor:
-    """(S, B, dim): one Gaussian draw per sample and co-occurrence group."""
-    noise = torch.randn(n_samples, batch.n_groups, dim, generator=generator)
-    return noise[:, batch.group]
+    """(S, B, dim): one Gaussian draw per sample and co-occurrence group, drawn on the generator's
+    device, on the batch's."""
+    noise = torch.randn(n_samples, batch.n_groups, dim, generator=generator, device=generator.device)
+    return to_device(noise, batch.group.device)[:, batch.group]
 
 
-def soft_labels(n: int, bounds: list[float], generator: torch.Generator) -> torch.Tensor:
+def soft_labels(n: int, bounds: list[float], generator: torch.Generator,
+                device: torch.device = CPU) -> torch.Tensor:
+    """(n,) uniform in [low, high], drawn on the generator's device, on `device`."""
     low, high = bounds
-    return low + (high - low) * torch.rand(n, generator=generator)
+    return low + (high - low) * to_device(torch.rand(n, generator=generator, device=generator.device), device)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -236,43 +245,46 @@ class SocialGan:
     config_class = SganConfig
     trainable = True
 
-    def __init__(self, config: SganConfig, n_past: int, n_future: int):
+    def __init__(self, config: SganConfig, n_past: int, n_future: int, device: torch.device = CPU):
         self.config, self.n_past, self.n_future = config, n_past, n_future
-        self.generator = Generator(config)
-        self.discriminator = Discriminator(config)
+        self.device = torch.device(device)
+        # Initialised on the CPU (torch's global RNG), then moved: the same weights on any device.
+        self.generator = Generator(config).to(self.device)
+        self.discriminator = Discriminator(config).to(self.device)
         self.fit_result: FitResult | None = None  # set by fit
 
     @classmethod
-    def fit(cls, train: WindowArrays, val: WindowArrays, config: SganConfig,
-            checkpoint_dir: Path, seed: int) -> SocialGan:
+    def fit(cls, train: WindowArrays, val: WindowArrays, config: SganConfig, checkpoint_dir: Path,
+            seed: int, device: torch.device = CPU, preemption: Preemption = NEVER) -> SocialGan:
         if len(train) == 0 or len(val) == 0:
             raise ValueError("S-GAN needs training and validation windows")
-        rng = common.seed_everything(seed)
-        model = cls(config, train.past.shape[1], train.future.shape[1])
+        rng = common.seed_everything(seed, device)
+        model = cls(config, train.past.shape[1], train.future.shape[1], device)
         common.check_windows(val, model.n_past, model.n_future, "validation windows")
         opt_g = torch.optim.Adam(model.generator.parameters(), lr=config.learning_rate)
         opt_d = torch.optim.Adam(model.discriminator.parameters(), lr=config.learning_rate)
         groups = common.co_occurrence_groups(train)
 
-        def train_epoch(epoch: int) -> dict[str, float]:
-            totals = np.zeros(3)
-            batches = common.group_batches(groups, config.batch_size, rng)
-            for index in batches:
-                batch = make_batch(train.past[index], train.future[index], groups[index], config.coord_scale)
-                totals += model.train_step(batch, opt_g, opt_d, rng)
-            return dict(zip(("loss_d", "loss_adv", "loss_l2"), (totals / len(batches)).tolist()))
+        def epoch_batches(epoch: int) -> list[np.ndarray]:
+            return common.group_batches(groups, config.batch_size, rng)
+
+        def train_batch(index: np.ndarray) -> np.ndarray:
+            batch = make_batch(train.past[index], train.future[index], groups[index], config.coord_scale,
+                               device)
+            return model.train_step(batch, opt_g, opt_d, rng)
 
         def validate() -> float:
-            pred = model.predict(val, config.val_k, torch.Generator().manual_seed(seed + 1))
+            pred = model.predict(val, config.val_k, seeded_generator(device, seed + 1))
             return float(window_errors(pred, val.future).ade.mean())
 
         model.fit_result = common.run_training(
             name=cls.name, modules={"generator": model.generator, "discriminator": model.discriminator},
-            optimizers={"generator": opt_g, "discriminator": opt_d}, train_epoch=train_epoch,
+            optimizers={"generator": opt_g, "discriminator": opt_d}, epoch_batches=epoch_batches,
+            train_batch=train_batch, loss_names=("loss_d", "loss_adv", "loss_l2"),
             validate=validate, epochs=config.epochs, config=dataclasses.asdict(config),
             meta={"n_past": model.n_past, "n_future": model.n_future, "seed": seed},
             data_fingerprint=common.fingerprint(seed, train, val),
-            checkpoint_dir=checkpoint_dir, generator=rng)
+            checkpoint_dir=checkpoint_dir, generator=rng, device=device, preemption=preemption)
         return model
 
     def train_step(self, batch: Batch, opt_g: torch.optim.Optimizer, opt_d: torch.optim.Optimizer,
@@ -281,14 +293,16 @@ class SocialGan:
         cfg, n_f = self.config, batch.future_rel.shape[1]
         real = torch.cat([batch.past_rel, batch.future_rel], dim=1)  # (B, T-1, 2)
         n = len(real)
-        loss_d = torch.zeros(())
+        loss_d = torch.zeros((), device=real.device)
         for _ in range(cfg.d_steps):
             with torch.no_grad():
                 fake_rel = self.generator(batch.past_rel, batch.position, batch.pairs,
                                           global_noise(batch, 1, cfg.noise_dim, rng), n_f)[0]
             fake = torch.cat([batch.past_rel, fake_rel], dim=1)
-            loss_d = (F.binary_cross_entropy_with_logits(self.discriminator(real), soft_labels(n, cfg.real_label, rng))
-                      + F.binary_cross_entropy_with_logits(self.discriminator(fake), soft_labels(n, cfg.fake_label, rng)))
+            loss_d = (F.binary_cross_entropy_with_logits(self.discriminator(real),
+                                                         soft_labels(n, cfg.real_label, rng, real.device))
+                      + F.binary_cross_entropy_with_logits(self.discriminator(fake),
+                                                           soft_labels(n, cfg.fake_label, rng, real.device)))
             opt_d.zero_grad()
             loss_d.backward()
             if cfg.clip_d > 0:
@@ -299,7 +313,8 @@ class SocialGan:
         l2 = ((samples - batch.future_rel) ** 2).sum(dim=(-1, -2))  # (k, B)
         loss_l2 = l2.min(dim=0).values.mean()
         fake = torch.cat([batch.past_rel, samples[0]], dim=1)
-        loss_adv = F.binary_cross_entropy_with_logits(self.discriminator(fake), soft_labels(n, cfg.real_label, rng))
+        loss_adv = F.binary_cross_entropy_with_logits(self.discriminator(fake),
+                                                      soft_labels(n, cfg.real_label, rng, real.device))
         loss_g = loss_adv + cfg.l2_weight * loss_l2
         opt_g.zero_grad()
         loss_g.backward()
@@ -309,9 +324,9 @@ class SocialGan:
         return np.array([loss_d.item(), loss_adv.item(), loss_l2.item()])
 
     @classmethod
-    def load(cls, checkpoint_dir: Path) -> SocialGan:
-        state = common.load_checkpoint(Path(checkpoint_dir) / common.BEST)
-        model = cls(SganConfig(**state["config"]), state["meta"]["n_past"], state["meta"]["n_future"])
+    def load(cls, checkpoint_dir: Path, device: torch.device = CPU) -> SocialGan:
+        state = common.load_checkpoint(Path(checkpoint_dir) / common.BEST, map_location=device)
+        model = cls(SganConfig(**state["config"]), state["meta"]["n_past"], state["meta"]["n_future"], device)
         model.generator.load_state_dict(state["modules"]["generator"])
         model.discriminator.load_state_dict(state["modules"]["discriminator"])
         model.generator.eval()
@@ -320,16 +335,17 @@ class SocialGan:
     @torch.no_grad()
     def predict(self, arrays: WindowArrays, k: int, generator: torch.Generator,
                 batch_size: int = 512) -> np.ndarray:
-        """(N, k, n_f, 2) sampled futures in pixels."""
+        """(N, k, n_f, 2) sampled futures in pixels; the noise is drawn on `generator`'s device."""
         common.check_windows(arrays, self.n_past, None, "S-GAN input")
         self.generator.eval()
         groups = common.co_occurrence_groups(arrays)
         out = np.zeros((len(arrays), k, self.n_future, 2))
         empty_future = np.zeros((len(arrays), self.n_future, 2))
         for index in common.group_batches(groups, batch_size):
-            batch = make_batch(arrays.past[index], empty_future[index], groups[index], self.config.coord_scale)
+            batch = make_batch(arrays.past[index], empty_future[index], groups[index], self.config.coord_scale,
+                               self.device)
             noise = global_noise(batch, k, self.config.noise_dim, generator)
             rel = self.generator(batch.past_rel, batch.position, batch.pairs, noise, self.n_future)
-            path = rel.cumsum(dim=2).double().numpy() * self.config.coord_scale  # (k, B, n_f, 2)
+            path = rel.cumsum(dim=2).double().cpu().numpy() * self.config.coord_scale  # (k, B, n_f, 2)
             out[index] = batch.last_px[:, None, None] + path.transpose(1, 0, 2, 3)
         return out

@@ -1,0 +1,136 @@
+"""Where torch runs: one place that turns params.yaml `runtime.device` into a device and its habits.
+
+Every training and scoring stage calls `select_device` once and then only uses the helpers below, so
+no other module needs to know whether it runs on a CPU or a GPU:
+
+- `select_device("auto")` is CUDA when one is available, else the CPU; "cpu", "cuda" and "cuda:N"
+  ask for exactly that and fail with a clear message when it is not there.
+- On CUDA it turns on TF32 matmuls and convolutions and deterministic algorithms where CUDA has
+  them (`torch.use_deterministic_algorithms(warn_only=True)`; see `NONDETERMINISTIC_ON_CUDA`).
+- `autocast(device)` is bfloat16 autocast on CUDA (convolutions and matmuls; losses, softmaxes and
+  sampling stay float32, as autocast keeps them), and nothing on the CPU, whose `cpu` profile
+  numbers must not move. Stages that chose CPU bf16 on purpose pass `cpu_bf16=True`.
+- `to_device` pins host memory and copies without blocking on CUDA; on the CPU it returns the
+  tensor itself.
+- `generator(device, seed)`: random draws are made on the device their tensors live on.
+
+On the CPU nothing here changes a single number: the helpers are identities there.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from dataclasses import dataclass
+
+import torch
+
+# Ops our models use whose CUDA kernels have no deterministic version (PyTorch 2.x): with
+# `warn_only=True` they run anyway and warn once. Same seed, same GPU: metrics agree to float
+# rounding, not bit for bit.
+NONDETERMINISTIC_ON_CUDA = (
+    "upsample_bilinear2d backward (Y-net and U-Net decoders' x2 bilinear upsampling, training only)",
+    "index_put / scatter_add with accumulate (none in the forward passes; listed for completeness)",
+)
+
+
+@dataclass
+class RuntimeParams:
+    """Section `runtime` of params.yaml: where torch runs and how long a training call may take."""
+
+    device: str = "auto"
+    """auto (CUDA when available) | cpu | cuda | cuda:N."""
+    max_minutes: float = 0.0
+    """Training stages save a mid-epoch checkpoint and stop (exit code 75) after this many minutes
+    of one invocation; the next `dvc repro` resumes. 0 = no limit."""
+
+    def __post_init__(self):
+        parse_device_name(self.device)  # raises on a malformed name
+        if self.max_minutes < 0:
+            raise ValueError(f"max_minutes must be >= 0 (0 = no limit), got {self.max_minutes}")
+
+
+def parse_device_name(name: str) -> tuple[str, int | None]:
+    """'auto' | 'cpu' | 'cuda' | 'cuda:N' -> (kind, index); anything else is a ValueError."""
+    if name in ("auto", "cpu", "cuda"):
+        return name, None
+    kind, _, index = name.partition(":")
+    if kind == "cuda" and index.isdigit():
+        return kind, int(index)
+    raise ValueError(f"device must be auto, cpu, cuda or cuda:N, got {name!r}")
+
+
+def resolve_device(name: str) -> torch.device:
+    """The torch.device a `runtime.device` name stands for on this machine."""
+    kind, index = parse_device_name(name)
+    if kind == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if kind == "cpu":
+        return torch.device("cpu")
+    if not torch.cuda.is_available():
+        raise RuntimeError(f"runtime.device is {name!r} but torch sees no CUDA device "
+                           f"(torch {torch.__version__}, built for CUDA {torch.version.cuda}); "
+                           "use 'auto' or 'cpu'")
+    if index is not None and index >= torch.cuda.device_count():
+        raise RuntimeError(f"runtime.device is {name!r} but only {torch.cuda.device_count()} CUDA "
+                           "device(s) are visible")
+    return torch.device("cuda", index if index is not None else torch.cuda.current_device())
+
+
+def select_device(name: str) -> torch.device:
+    """`resolve_device`, then the settings that make CUDA fast and as repeatable as it allows."""
+    device = resolve_device(name)
+    if device.type == "cuda":
+        # cuBLAS needs this before its first call to pick deterministic reductions.
+        os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
+        torch.cuda.set_device(device)
+        torch.backends.cuda.matmul.allow_tf32 = True
+        torch.backends.cudnn.allow_tf32 = True
+        torch.backends.cudnn.benchmark = False
+        torch.backends.cudnn.deterministic = True
+        torch.use_deterministic_algorithms(True, warn_only=True)
+    return device
+
+
+def describe(device: torch.device) -> str:
+    """A line for logs and metrics: which device, and what it is."""
+    if device.type == "cuda":
+        return f"{device} ({torch.cuda.get_device_name(device)})"
+    return f"cpu ({torch.get_num_threads()} threads)"
+
+
+def autocast(device: torch.device, cpu_bf16: bool = False):
+    """bfloat16 autocast on CUDA; on the CPU only when `cpu_bf16` (a profile's explicit choice)."""
+    if device.type == "cuda":
+        return torch.autocast("cuda", dtype=torch.bfloat16)
+    if cpu_bf16:
+        return torch.autocast("cpu", dtype=torch.bfloat16)
+    return contextlib.nullcontext()
+
+
+def to_device(tensor: torch.Tensor, device: torch.device) -> torch.Tensor:
+    """`tensor` on `device`: pinned and non-blocking to CUDA; the very same tensor on the CPU."""
+    if tensor.device == device:
+        return tensor
+    if device.type == "cuda" and tensor.device.type == "cpu":
+        return tensor.pin_memory().to(device, non_blocking=True)
+    return tensor.to(device)
+
+
+def generator(device: torch.device, seed: int) -> torch.Generator:
+    """A seeded generator on `device`, so draws happen where the tensors they index live."""
+    return torch.Generator(device=device).manual_seed(seed)
+
+
+def conv_layout(module: torch.nn.Module, device: torch.device) -> torch.nn.Module:
+    """`module` on `device`, channels-last on CUDA (tensor cores want NHWC); unchanged on CPU."""
+    module = module.to(device)
+    if device.type == "cuda":
+        module = module.to(memory_format=torch.channels_last)
+    return module
+
+
+def synchronize(device: torch.device) -> None:
+    """Wait for queued GPU work (before reading a clock); nothing on the CPU."""
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)

@@ -1,0 +1,55 @@
+"""`runtime.device`: names, resolution and the CPU helpers being identities."""
+
+import pytest
+import torch
+
+from pipeline.device import (RuntimeParams, autocast, conv_layout, generator, parse_device_name,
+                             resolve_device, to_device)
+from pipeline.params import ParamsError, load_section
+
+
+@pytest.mark.parametrize("name, parsed", [("auto", ("auto", None)), ("cpu", ("cpu", None)),
+                                          ("cuda", ("cuda", None)), ("cuda:1", ("cuda", 1))])
+def test_device_names(name, parsed):
+    assert parse_device_name(name) == parsed
+
+
+@pytest.mark.parametrize("name", ["gpu", "cuda:", "cuda:x", "CPU", "mps:0", ""])
+def test_bad_device_names_are_errors(name):
+    with pytest.raises(ValueError, match="auto, cpu, cuda or cuda:N"):
+        parse_device_name(name)
+    with pytest.raises(ParamsError, match="runtime"):
+        load_section(RuntimeParams, "runtime", {"runtime": {"device": name}})
+
+
+def test_auto_is_cuda_only_when_available_and_cpu_is_cpu():
+    expected = "cuda" if torch.cuda.is_available() else "cpu"
+    assert resolve_device("auto").type == expected
+    assert resolve_device("cpu") == torch.device("cpu")
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")
+def test_asking_for_cuda_without_one_says_so():
+    with pytest.raises(RuntimeError, match="no CUDA device"):
+        resolve_device("cuda:0")
+
+
+def test_cpu_helpers_change_nothing():
+    cpu = torch.device("cpu")
+    x = torch.randn(3, 4)
+    assert to_device(x, cpu) is x
+    module = torch.nn.Conv2d(2, 2, 3)
+    weight = module.weight.clone()
+    assert conv_layout(module, cpu) is module and torch.equal(module.weight, weight)
+    assert module.weight.is_contiguous()  # channels-last is for CUDA only
+    with autocast(cpu):
+        assert (x @ x.T).dtype == torch.float32
+    with autocast(cpu, cpu_bf16=True):
+        assert (x @ x.T).dtype == torch.bfloat16
+    assert torch.equal(torch.rand(5, generator=generator(cpu, 3)),
+                       torch.rand(5, generator=torch.Generator().manual_seed(3)))
+
+
+def test_max_minutes_must_not_be_negative():
+    with pytest.raises(ParamsError, match="max_minutes"):
+        load_section(RuntimeParams, "runtime", {"runtime": {"max_minutes": -1}})
