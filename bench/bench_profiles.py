@@ -8,7 +8,8 @@ batch, K_e / K_a, chunking) on `--device` (default: CUDA when present, else the 
 
     python bench/bench_profiles.py [--device auto|cpu|cuda] [--threads 2] [--steps 3] [--windows 3]
 
-With the release's window table at hand (`data/windows/release_tf30.parquet`, stage `windows`) it
+It re-executes itself with glibc malloc told to keep freed memory, as the stages run (dvc.yaml's
+GLIBC_TUNABLES; see bench/bench_ynet.py). With the release's window table at hand (`data/windows/release_tf30.parquet`, stage `windows`) it
 also projects one `paper` epoch (every train window under all 8 augmentations) and the full run.
 """
 
@@ -35,6 +36,7 @@ from pipeline.window_table import WindowArrays  # noqa: E402
 from pipeline.ynet_data import group_by_scene  # noqa: E402
 from ynet.model import YNet  # noqa: E402
 
+KEEP_FREED_MEMORY = "glibc.malloc.mmap_threshold=4294967296:glibc.malloc.trim_threshold=17179869184"
 IMAGE_HW = (2048, 1664)  # original pixels of the synthetic scene
 N_PAST, N_FUTURE = 5, 30
 RELEASE_TABLE = Path("data/windows/release_tf30.parquet")
@@ -94,6 +96,9 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3, help="timed training steps per profile")
     parser.add_argument("--windows", type=int, default=3, help="timed test windows per profile")
     args = parser.parse_args()
+    if os.environ.get("GLIBC_TUNABLES") != KEEP_FREED_MEMORY:
+        os.execve(sys.executable, [sys.executable, *sys.argv],
+                  {**os.environ, "GLIBC_TUNABLES": KEEP_FREED_MEMORY})
     torch.set_num_threads(args.threads)
     torch.set_flush_denormal(True)
     device = select_device(args.device)

@@ -25,12 +25,15 @@ from dataclasses import dataclass
 
 import torch
 
-# Ops our models use whose CUDA kernels have no deterministic version (PyTorch 2.x): with
-# `warn_only=True` they run anyway and warn once. Same seed, same GPU: metrics agree to float
-# rounding, not bit for bit.
+# The op our models use whose CUDA kernel has no deterministic version (PyTorch 2.x, checked
+# against `torch.use_deterministic_algorithms`' list): with `warn_only=True` it runs anyway and
+# warns once. So on one GPU, training with one seed repeats up to float rounding in the decoders'
+# gradients, not bit for bit; scoring (forward passes, seeded sampling on the device) repeats.
+# S-GAN's pooling (`scatter_reduce` "amax") and the U-Net's IoU (`bincount` without weights) have
+# deterministic results however their threads are ordered.
 NONDETERMINISTIC_ON_CUDA = (
-    "upsample_bilinear2d backward (Y-net and U-Net decoders' x2 bilinear upsampling, training only)",
-    "index_put / scatter_add with accumulate (none in the forward passes; listed for completeness)",
+    "upsample_bilinear2d backward: the x2 bilinear upsampling of the Y-net and U-Net decoders "
+    "(training only)",
 )
 
 
