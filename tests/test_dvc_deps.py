@@ -1,0 +1,122 @@
+"""Every stage declares what it runs and reads, so `dvc repro` re-runs it when any of that changes.
+
+Code: the project modules a stage's `python -m pipeline.<module>` imports, followed through every
+import inside `pipeline` and `ynet` (a package's `__init__.py` counts when it holds code), must all
+be in the stage's `deps`. Files: every path on the command line must be a declared dep or output
+(or lie inside one, or be the folder of declared outputs), except `dvc.lock`, which the report reads for its provenance and which
+cannot be a dep of a stage it records.
+"""
+
+from __future__ import annotations
+
+import ast
+import shlex
+from functools import cache
+from pathlib import Path
+
+import pytest
+from dvc.repo import Repo
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGES = ("pipeline", "ynet")
+NOT_A_DEP = {"dvc.lock"}  # read by `report` for provenance; a dep on it could never be up to date
+
+
+def module_path(name: str) -> Path | None:
+    """The file of project module `name` (a package's __init__.py), or None if not ours."""
+    if name.split(".")[0] not in PACKAGES:
+        return None
+    base = REPO.joinpath(*name.split("."))
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def has_code(path: Path) -> bool:
+    """False for a module that is only a docstring (an empty package marker)."""
+    body = ast.parse(path.read_text()).body
+    return any(not (isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant))
+               for node in body)
+
+
+def imported_modules(path: Path) -> set[str]:
+    """Absolute names of the modules `path` imports (and, for `from a import b`, a.b if a module)."""
+    package = ".".join(path.relative_to(REPO).with_suffix("").parts[:-1])
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:  # relative import
+                parent = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join([*parent, base] if base else parent)
+            names.add(base)
+            names.update(f"{base}.{alias.name}" for alias in node.names)
+    return names
+
+
+@cache
+def code_closure(module: str) -> frozenset[str]:
+    """Repository-relative files of `module`, its parent packages and everything they import."""
+    seen: set[Path] = set()
+    todo = [module]
+    while todo:
+        name = todo.pop()
+        parts = name.split(".")
+        for i in range(1, len(parts) + 1):  # importing a.b.c runs a/__init__ and a/b/__init__
+            path = module_path(".".join(parts[:i]))
+            if path is None or path in seen:
+                continue
+            seen.add(path)
+            todo.extend(imported_modules(path))
+    return frozenset(p.relative_to(REPO).as_posix() for p in seen
+                     if p.name != "__init__.py" or has_code(p))
+
+
+def stages():
+    return sorted(Repo(str(REPO)).index.stages, key=lambda s: s.addressing)
+
+
+def stage_module(cmd: str) -> str | None:
+    tokens = shlex.split(cmd)
+    return tokens[tokens.index("-m") + 1] if "-m" in tokens else None
+
+
+def covered(path: str, declared: list[str], outs: list[str]) -> bool:
+    """A declared path, a file inside one, or the folder an option names for declared outputs."""
+    return (any(path == d or path.startswith(d.rstrip("/") + "/") for d in declared)
+            or any(o.startswith(path.rstrip("/") + "/") for o in outs))
+
+
+STAGES = stages()
+
+
+@pytest.mark.parametrize("stage", STAGES, ids=lambda s: s.addressing)
+def test_stage_declares_the_code_it_imports(stage):
+    module = stage_module(stage.cmd)
+    assert module, f"{stage.addressing}: command is not `python -m <module>`: {stage.cmd}"
+    deps = [d.def_path for d in stage.deps]
+    missing = sorted(f for f in code_closure(module) if f not in deps)
+    assert not missing, f"{stage.addressing} imports {missing} but dvc.yaml does not list them"
+
+
+@pytest.mark.parametrize("stage", STAGES, ids=lambda s: s.addressing)
+def test_every_path_on_the_command_line_is_a_dep_or_an_output(stage):
+    outs = [o.def_path for o in stage.outs]
+    declared = [d.def_path for d in stage.deps] + outs
+    paths = [t for t in shlex.split(stage.cmd)
+             if "/" in t or Path(t).suffix in (".yaml", ".lock", ".json", ".parquet")]
+    paths = [p for p in paths if "=" not in p and p not in NOT_A_DEP]
+    undeclared = [p for p in paths if not covered(p, declared, outs)]
+    assert not undeclared, f"{stage.addressing} reads or writes {undeclared}, not declared in dvc.yaml"
+
+
+def test_the_closure_follows_imports_through_packages():
+    """A check of the checker: train_baseline reaches every model through the registry."""
+    closure = code_closure("pipeline.train_baseline")
+    assert {"pipeline/baselines/__init__.py", "pipeline/baselines/sgan.py",
+            "pipeline/baselines/pecnet.py", "pipeline/device.py"} <= closure
+    assert "pipeline/__init__.py" not in closure  # a docstring only
+    assert "ynet/model.py" in code_closure("pipeline.evaluate_ynet")
