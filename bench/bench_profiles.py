@@ -27,6 +27,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.device import describe, select_device, synchronize  # noqa: E402
 from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, predict_scenes,  # noqa: E402
                                     sampling_options)
@@ -36,7 +37,6 @@ from pipeline.window_table import WindowArrays  # noqa: E402
 from pipeline.ynet_data import group_by_scene  # noqa: E402
 from ynet.model import YNet  # noqa: E402
 
-KEEP_FREED_MEMORY = "glibc.malloc.mmap_threshold=4294967296:glibc.malloc.trim_threshold=17179869184"
 IMAGE_HW = (2048, 1664)  # original pixels of the synthetic scene
 N_PAST, N_FUTURE = 5, 30
 RELEASE_TABLE = Path("data/windows/release_tf30.parquet")
@@ -59,7 +59,7 @@ def synthetic_windows(n: int, seed: int) -> tuple[WindowArrays, dict, dict]:
 def training_rate(settings: YnetSettings, device: torch.device, steps: int) -> float:
     """Training samples per second over `steps` optimiser steps after one warm-up step."""
     arrays, maps, sizes = synthetic_windows(settings.batch_size * (steps + 1), 0)
-    scenes = [s.to(device) for s in group_by_scene(arrays, maps, sizes, settings.resize)]
+    scenes = group_by_scene(arrays, maps, sizes, settings.resize, device)
     torch.manual_seed(settings.seed)
     model = YNet(settings.model_config(N_PAST, N_FUTURE)).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
@@ -76,7 +76,7 @@ def scoring_rate(settings: YnetSettings, evaluation: EvalParams, device: torch.d
                  windows: int) -> float:
     """Test windows per second, TTST + CWS at the profile's K_e and K_a, after one warm-up window."""
     arrays, maps, sizes = synthetic_windows(windows + 1, 1)
-    scenes = group_by_scene(arrays, maps, sizes, settings.resize)
+    scenes = group_by_scene(arrays, maps, sizes, settings.resize, device)
     model = YNet(settings.model_config(N_PAST, N_FUTURE)).to(device).eval()
     options = sampling_options(evaluation.k_e, evaluation.k_a, TtstParams(), CwsParams(), True, True)
     warm = [scenes[0].subset(np.arange(1))]
@@ -96,9 +96,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3, help="timed training steps per profile")
     parser.add_argument("--windows", type=int, default=3, help="timed test windows per profile")
     args = parser.parse_args()
-    if os.environ.get("GLIBC_TUNABLES") != KEEP_FREED_MEMORY:
-        os.execve(sys.executable, [sys.executable, *sys.argv],
-                  {**os.environ, "GLIBC_TUNABLES": KEEP_FREED_MEMORY})
+    keep_freed_memory()
     torch.set_num_threads(args.threads)
     torch.set_flush_denormal(True)
     device = select_device(args.device)

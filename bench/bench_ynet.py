@@ -45,6 +45,14 @@ AUTHORS = {
 }
 
 
+def keep_freed_memory() -> None:
+    """Re-execute this script with glibc malloc keeping freed memory (as dvc.yaml runs the torch
+    stages), unless it already runs so."""
+    if os.environ.get("GLIBC_TUNABLES") != KEEP_FREED_MEMORY:
+        os.execve(sys.executable, [sys.executable, *sys.argv],
+                  {**os.environ, "GLIBC_TUNABLES": KEEP_FREED_MEMORY})
+
+
 def timed(fn, repeats: int) -> list[float]:
     fn()  # warm-up: allocator, oneDNN kernel selection
     times = []
@@ -163,8 +171,8 @@ def main():
     parser.add_argument("--profile", choices=("cpu", "paper"),
                         help="use params.yaml's ynet.<profile> resize (the map shrinks with it) and batch size")
     args = parser.parse_args()
-    if not args.no_malloc_tuning and os.environ.get("GLIBC_TUNABLES") != KEEP_FREED_MEMORY:
-        os.execve(sys.executable, [sys.executable, *sys.argv], {**os.environ, "GLIBC_TUNABLES": KEEP_FREED_MEMORY})
+    if not args.no_malloc_tuning:
+        keep_freed_memory()
 
     torch.set_num_threads(args.threads)
     # Adam's second-moment estimates of these tiny BCE gradients fall into denormal floats, which

@@ -13,6 +13,7 @@ no other module needs to know whether it runs on a CPU or a GPU:
 - `to_device` pins host memory and copies without blocking on CUDA; on the CPU it returns the
   tensor itself.
 - `generator(device, seed)`: random draws are made on the device their tensors live on.
+- `rng_states` / `restore_rng_states`: torch's global RNG states (and CUDA's) in a checkpoint.
 
 On the CPU nothing here changes a single number: the helpers are identities there.
 """
@@ -24,6 +25,8 @@ import os
 from dataclasses import dataclass
 
 import torch
+
+CPU = torch.device("cpu")
 
 # The op our models use whose CUDA kernel has no deterministic version (PyTorch 2.x, checked
 # against `torch.use_deterministic_algorithms`' list): with `warn_only=True` it runs anyway and
@@ -69,7 +72,7 @@ def resolve_device(name: str) -> torch.device:
     if kind == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
     if kind == "cpu":
-        return torch.device("cpu")
+        return CPU
     if not torch.cuda.is_available():
         raise RuntimeError(f"runtime.device is {name!r} but torch sees no CUDA device "
                            f"(torch {torch.__version__}, built for CUDA {torch.version.cuda}); "
@@ -123,6 +126,29 @@ def to_device(tensor: torch.Tensor, device: torch.device) -> torch.Tensor:
 def generator(device: torch.device, seed: int) -> torch.Generator:
     """A seeded generator on `device`, so draws happen where the tensors they index live."""
     return torch.Generator(device=device).manual_seed(seed)
+
+
+def module_device(module: torch.nn.Module) -> torch.device:
+    """The device a module's parameters live on (where its inputs must go)."""
+    return next(module.parameters()).device
+
+
+def rng_states(device: torch.device) -> dict[str, torch.Tensor]:
+    """torch's global RNG state, and the device's own on CUDA: what a checkpoint keeps to resume."""
+    states = {"torch": torch.get_rng_state()}
+    if device.type == "cuda":
+        states["cuda"] = torch.cuda.get_rng_state(device)
+    return states
+
+
+def restore_rng_states(states: dict[str, torch.Tensor] | None, device: torch.device) -> None:
+    """Undo `rng_states`, wherever the checkpoint's tensors were loaded to (the CUDA state only
+    when resuming on CUDA); None or {} (an older checkpoint without them): nothing."""
+    if not states:
+        return
+    torch.set_rng_state(states["torch"].cpu())
+    if device.type == "cuda" and "cuda" in states:
+        torch.cuda.set_rng_state(states["cuda"].cpu(), device)
 
 
 def conv_layout(module: torch.nn.Module, device: torch.device) -> torch.nn.Module:

@@ -23,9 +23,9 @@ import numpy as np
 import torch
 
 from pipeline import baselines
-from pipeline.baselines.common import (CPU, fit_result_from, load_checkpoint, load_windows, save_json_atomic,
+from pipeline.baselines.common import (fit_result_from, load_checkpoint, load_windows, save_json_atomic,
                                        select_split)
-from pipeline.device import RuntimeParams, describe, select_device
+from pipeline.device import CPU, RuntimeParams, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.metrics import summarize, window_errors
 from pipeline.params import load_section, read_params

@@ -24,7 +24,8 @@ import pandas as pd
 import torch
 from tqdm import tqdm
 
-from pipeline.device import RuntimeParams, conv_layout, describe, generator, select_device
+from pipeline.device import (CPU, RuntimeParams, conv_layout, describe, generator, module_device,
+                             select_device)
 from pipeline.metrics import window_errors
 from pipeline.params import load_profile, load_section, read_params
 from pipeline.semantic_maps import load_semantic_maps
@@ -93,7 +94,7 @@ def sampling_options(k_e: int, k_a: int, ttst: TtstParams, cws: CwsParams, use_t
                            sigma_factor=cws.sigma_factor, ratio=cws.ratio, rot=cws.rot)
 
 
-def load_model(path: Path, device: torch.device = torch.device("cpu")) -> tuple[YNet, YnetSettings]:
+def load_model(path: Path, device: torch.device = CPU) -> tuple[YNet, YnetSettings]:
     """Weights saved by `train_ynet.train` (on any device), ready for inference on `device`."""
     saved = torch.load(path, weights_only=True, map_location="cpu")
     config = YNetConfig(**{k: tuple(v) if isinstance(v, list) else v
@@ -103,9 +104,6 @@ def load_model(path: Path, device: torch.device = torch.device("cpu")) -> tuple[
     model.eval()
     return conv_layout(model, device), YnetSettings(**saved["settings"])
 
-
-def model_device(model: torch.nn.Module) -> torch.device:
-    return next(model.parameters()).device
 
 
 def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
@@ -118,7 +116,7 @@ def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettin
     (`ynet_data.window_inputs`): short-term futures stay near the agent. Runs on the model's device
     (scenes are moved there); on CUDA the trajectory decoder runs in bfloat16.
     """
-    device = model_device(model)
+    device = module_device(model)
     draws = generator(device, seed)
     bf16 = params.bf16 or device.type == "cuda"
     n_future = scenes[0].future.shape[1]
@@ -126,7 +124,7 @@ def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettin
     goals = np.zeros((n_windows, options.K, 2))
     with tqdm(total=n_windows, desc=desc, leave=False, disable=None) as progress:
         for scene in scenes:
-            scene = scene.to(device)
+            scene = scene.to(device)  # a no-op for scenes grouped on the model's device
             for start in range(0, len(scene), params.batch_size):
                 past = scene.past[start:start + params.batch_size]
                 inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
@@ -167,7 +165,7 @@ def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> d
 def qualitative(model: YNet, scene: SceneWindows, row: int, settings: YnetSettings,
                 options: SamplingOptions, image: np.ndarray, seed: int) -> dict[str, np.ndarray]:
     """Heatmaps and samples of one window, in the resized scene image's pixels."""
-    device = model_device(model)
+    device = module_device(model)
     scene = scene.to(device)
     semantic = padded_semantic(scene.semantic, PAD_CLASS)
     height, width = scene.semantic.shape[-2:]
@@ -222,7 +220,8 @@ def main(argv: list[str] | None = None) -> None:
     table = pd.read_parquet(args.windows)
     test = to_arrays(table[table["split"] == "test"], args.n_past)
     sizes = image_sizes(args.sdd, set(test.scene_id))
-    scenes = group_by_scene(test, load_semantic_maps(args.semantic_maps), sizes, settings.resize)
+    scenes = group_by_scene(test, load_semantic_maps(args.semantic_maps), sizes, settings.resize,
+                            device)
 
     start = time.perf_counter()
     main_options = sampling_options(eval_params.k_e, eval_params.k_a, ttst, cws, True, True)

@@ -46,7 +46,7 @@ import torch
 from pipeline import baselines, train_baseline
 from pipeline.baselines.common import select_split
 from pipeline.baselines.rpecnet import RecurrentPecnet
-from pipeline.device import RuntimeParams, describe, select_device
+from pipeline.device import CPU, RuntimeParams, describe, select_device
 from pipeline.evaluate_baseline import EvaluateBaselineParams, training_facts
 from pipeline.evaluate_baseline import evaluate as evaluate_baseline
 from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, evaluate, load_model,
@@ -184,7 +184,7 @@ def finetune(model: UNet, scenes: list[tuple[np.ndarray, np.ndarray]], params: S
 
 
 def semantic_maps(ind_dir: Path, index: dict, segmentation_model: Path, settings: BenchmarkSettings,
-                  work_dir: Path, device: torch.device = torch.device("cpu")
+                  work_dir: Path, device: torch.device = CPU
                   ) -> tuple[dict[str, np.ndarray], dict]:
     """scene_id -> (C, H, W) class probabilities at Y-net's resolution, and what was done.
 
@@ -265,7 +265,7 @@ def fresh_or_resumable(folder: Path, key: str) -> None:
 
 def ynet_benchmark(splits: dict[str, WindowArrays], maps: dict[str, np.ndarray],
                    sizes: dict[str, tuple[int, int]], settings: BenchmarkSettings, n_past: int,
-                   folder: Path, device: torch.device = torch.device("cpu"),
+                   folder: Path, device: torch.device = CPU,
                    preemption: Preemption = NEVER) -> dict:
     """Train Y-net (val selects the epoch), then the main result, ablation and K_a grid on test."""
     ynet_settings = replace(settings.ynet, resize=settings.ind.ynet_resize)
@@ -282,7 +282,7 @@ def ynet_benchmark(splits: dict[str, WindowArrays], maps: dict[str, np.ndarray],
 
     model, ynet_settings = load_model(folder / "best.pt", device)
     test = splits["test"]
-    scenes = group_by_scene(test, maps, sizes, ynet_settings.resize)
+    scenes = group_by_scene(test, maps, sizes, ynet_settings.resize, device)
     params = settings.eval
 
     def run(k_e: int, k_a: int, ttst: bool, cws: bool, rounds: int, desc: str) -> dict:
@@ -307,7 +307,7 @@ def ynet_benchmark(splits: dict[str, WindowArrays], maps: dict[str, np.ndarray],
 
 
 def baseline_benchmark(long: WindowArrays, base: WindowArrays, settings: BenchmarkSettings,
-                       checkpoint_dir: Path, device: torch.device = torch.device("cpu"),
+                       checkpoint_dir: Path, device: torch.device = CPU,
                        preemption: Preemption = NEVER) -> dict[str, dict]:
     """model -> scores in the layout of metrics/baselines/<model>_tf30.json."""
     seed, evaluation = settings.train_baseline.seed, settings.evaluate_baseline
@@ -344,7 +344,7 @@ def read_windows(ind_dir: Path, index: dict, horizon: int) -> WindowArrays:
 
 
 def run_benchmark(ind_dir: Path, segmentation_model: Path, checkpoint_dir: Path,
-                  settings: BenchmarkSettings, device: torch.device = torch.device("cpu"),
+                  settings: BenchmarkSettings, device: torch.device = CPU,
                   preemption: Preemption = NEVER) -> dict:
     """The metrics record (results, or why there are none); checkpoints go to `checkpoint_dir`."""
     checkpoint_dir.mkdir(parents=True, exist_ok=True)

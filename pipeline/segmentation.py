@@ -34,8 +34,8 @@ import torch
 from tqdm import tqdm
 
 from pipeline.augment import AugmentParams, random_crop
-from pipeline.device import (RuntimeParams, autocast, conv_layout, describe, select_device,
-                             synchronize, to_device)
+from pipeline.device import (RuntimeParams, autocast, conv_layout, describe, module_device,
+                             restore_rng_states, rng_states, select_device, synchronize, to_device)
 from pipeline.labels import atomic_write_bytes, read_index, read_label_map, reference_image_path
 from pipeline.params import load_profile, load_section, read_params
 from pipeline.preemption import NEVER, Preemption, exit_when_stopped
@@ -202,11 +202,6 @@ def load_checkpoint(path: Path) -> dict | None:
     return torch.load(path, map_location="cpu", weights_only=True)
 
 
-def model_device(model: torch.nn.Module) -> torch.device:
-    """The device a model's parameters live on (where its inputs must go)."""
-    return next(model.parameters()).device
-
-
 def step_loss(model: UNet, optimiser: torch.optim.Optimizer, images: torch.Tensor,
               labels: torch.Tensor, bf16: bool) -> torch.Tensor:
     """One Adam step on the Dice loss, on the model's device; returns the detached loss (0-d, on that
@@ -214,7 +209,7 @@ def step_loss(model: UNet, optimiser: torch.optim.Optimizer, images: torch.Tenso
 
     `bf16`: the profile's CPU bf16 autocast + channels-last; on CUDA both are always on.
     """
-    device = model_device(model)
+    device = module_device(model)
     images, labels = to_device(images, device), to_device(labels, device)
     if bf16 or device.type == "cuda":
         images = images.contiguous(memory_format=torch.channels_last)
@@ -232,23 +227,6 @@ def train_step(model: UNet, optimiser: torch.optim.Optimizer, images: torch.Tens
     """One Adam step on the Dice loss (on the model's device; inputs may be CPU tensors); returns
     the loss."""
     return step_loss(model, optimiser, images, labels, bf16).item()
-
-
-def rng_states(device: torch.device) -> dict:
-    """torch's RNG states (CPU, and the device's when on CUDA), for a checkpoint."""
-    states = {"torch": torch.get_rng_state()}
-    if device.type == "cuda":
-        states["cuda"] = torch.cuda.get_rng_state(device)
-    return states
-
-
-def restore_rng_states(states: dict | None, device: torch.device) -> None:
-    """Undo `rng_states` (a CUDA state only when resuming on CUDA); None (format 1): nothing."""
-    if not states:
-        return
-    torch.set_rng_state(states["torch"])
-    if device.type == "cuda" and "cuda" in states:
-        torch.cuda.set_rng_state(states["cuda"], device)
 
 
 def train(
@@ -362,7 +340,7 @@ def checkpoint_payload(run_id: str, model: UNet, optimiser: torch.optim.Optimize
     step's crops), losses (the epoch's step losses so far), crops, seconds (spent in the epoch)."""
     return {"format": CHECKPOINT_FORMAT, "fingerprint": run_id, "model": model.state_dict(),
             "optimiser": optimiser.state_dict(), "log": log, "rng": rng_states(device),
-            "position": position, "device": str(device)}
+            "position": position}
 
 
 def export_model(path: Path, model: UNet, params: SegmentationParams, profile: str,

@@ -25,7 +25,8 @@ import cv2
 import numpy as np
 import torch
 
-from pipeline.device import RuntimeParams, autocast, describe, select_device, to_device
+from pipeline.device import (RuntimeParams, autocast, describe, module_device, select_device,
+                             to_device)
 from pipeline.labels import (
     atomic_dir,
     atomic_write_bytes,
@@ -36,7 +37,7 @@ from pipeline.labels import (
     reference_image_path,
 )
 from pipeline.params import load_section, read_params
-from pipeline.segmentation import load_model, model_device, pad_to_multiple, scaled_size
+from pipeline.segmentation import load_model, pad_to_multiple, scaled_size
 from ynet.segmentation import (
     CLASS_NAMES,
     N_OUTPUTS,
@@ -69,7 +70,7 @@ class SemanticParams:
 def predict_probabilities(model: UNet, image: np.ndarray, pad_multiple: int) -> np.ndarray:
     """Softmax (C, h, w) float32 of the U-Net over a whole BGR uint8 image (h, w, 3), computed on
     the model's device (bf16 autocast on CUDA; float32 on the CPU)."""
-    device = model_device(model)
+    device = module_device(model)
     h, w = image.shape[:2]
     padded = pad_to_multiple(image, pad_multiple)  # (Hp, Wp, 3)
     x = torch.from_numpy(padded).permute(2, 0, 1)[None]  # (1, 3, Hp, Wp) uint8, channels-last view

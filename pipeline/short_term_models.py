@@ -49,7 +49,7 @@ import torch
 
 from pipeline import baselines
 from pipeline.baselines.common import select_split, subset
-from pipeline.device import RuntimeParams, describe, generator, select_device
+from pipeline.device import CPU, RuntimeParams, describe, generator, select_device
 from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, load_model, predict_scenes,
                                     sampling_options, summarize_rounds, write_json)
 from pipeline.homography import pixels_to_metres
@@ -276,7 +276,7 @@ def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None]], bench: 
 
 def run_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n_past: int,
              folder: Path, params: ShortTermModelsParams, ks: list[int],
-             device: torch.device = torch.device("cpu"),
+             device: torch.device = CPU,
              preemption: Preemption = NEVER) -> tuple[dict, dict[int, dict]]:
     """Train (or resume) Y-net, then score its best epoch at every K_e of `ks`."""
     val = sample_windows(bench.val, params.val_windows, params.seed)
@@ -284,7 +284,7 @@ def run_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n_p
                   folder / "best.pt", folder / "history.csv", device=device, preemption=preemption)
     model, loaded = load_model(folder / "best.pt", device)
     torch.set_num_threads(loaded.threads)
-    scenes = group_by_scene(bench.test, semantic_maps, sizes, loaded.resize)
+    scenes = group_by_scene(bench.test, semantic_maps, sizes, loaded.resize, device)
     ttst = TtstParams(temperature=params.temperature, rel_threshold=params.rel_threshold)
     eval_params = params.eval_params()
     start, results = time.perf_counter(), {}
@@ -311,7 +311,7 @@ def run_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n_p
 
 def run_baseline(name: str, bench: Benchmark, config, folder: Path, train_seed: int,
                  params: ShortTermModelsParams, ks: list[int],
-                 device: torch.device = torch.device("cpu"),
+                 device: torch.device = CPU,
                  preemption: Preemption = NEVER) -> tuple[dict, dict[int, dict]]:
     """Fit S-GAN or PECNet (resuming from `folder`), then score its best epoch at every K."""
     val = sample_windows(bench.val, params.val_windows, params.seed)

@@ -26,8 +26,8 @@ from pathlib import Path
 import torch
 
 from pipeline import baselines
-from pipeline.baselines.common import CPU, load_windows, save_json_atomic, select_split
-from pipeline.device import RuntimeParams, describe, select_device
+from pipeline.baselines.common import load_windows, save_json_atomic, select_split
+from pipeline.device import CPU, RuntimeParams, describe, select_device
 from pipeline.params import load_profile, load_section, read_params
 from pipeline.preemption import NEVER, Preemption, exit_when_stopped
 from pipeline.window_table import WindowArrays

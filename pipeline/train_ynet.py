@@ -28,8 +28,8 @@ import pandas as pd
 import torch
 from tqdm import tqdm
 
-from pipeline.device import (RuntimeParams, autocast, conv_layout, describe, select_device,
-                             to_device)
+from pipeline.device import (CPU, RuntimeParams, autocast, conv_layout, describe,
+                             restore_rng_states, rng_states, select_device)
 from pipeline.metrics import ade_fde
 from pipeline.params import load_profile, load_section, read_params
 from pipeline.preemption import NEVER, Preemption, exit_when_stopped
@@ -166,7 +166,7 @@ def deterministic_predict(model: YNet, scene: SceneWindows, settings: YnetSettin
         path = softargmax(model.predict_trajectory(features, maps))  # (B, n_f, 2)
         paths.append(path + origin[:, None])
         goals.append(waypoints[:, -1] + origin)
-    return torch.cat(paths).float().cpu().numpy(), torch.cat(goals).float().cpu().numpy()
+    return torch.cat(paths).cpu().numpy(), torch.cat(goals).cpu().numpy()
 
 
 def validate(model: YNet, scenes: list[SceneWindows], settings: YnetSettings) -> dict[str, float]:
@@ -200,7 +200,7 @@ def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
 
 def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: YnetSettings,
                 plan: list[tuple[int, int, bool, np.ndarray]], epoch: int, losses: list[float],
-                device: torch.device = torch.device("cpu"), preemption: Preemption = NEVER,
+                device: torch.device = CPU, preemption: Preemption = NEVER,
                 save_partial=None) -> float:
     """One epoch's optimiser steps, from step `len(losses)` of `plan` on; returns the mean loss.
 
@@ -271,7 +271,7 @@ def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str
 
 
 def resumable_checkpoint(path: Path, run_id: str, epochs: int,
-                         device: torch.device = torch.device("cpu")) -> dict | None:
+                         device: torch.device = CPU) -> dict | None:
     """The checkpoint at `path` if this run can continue from it, else None (saying why)."""
     if not path.exists():
         return None
@@ -307,17 +307,9 @@ def save_atomic(payload: dict, path: Path) -> None:
     os.replace(tmp, path)
 
 
-def rng_state(plan_state: dict, device: torch.device) -> dict:
-    """The RNG states a resumed run restores: the epoch plan's (numpy) and torch's."""
-    state = {"numpy_plan": plan_state, "torch": torch.get_rng_state()}
-    if device.type == "cuda":
-        state["torch_cuda"] = torch.cuda.get_rng_state(device)
-    return state
-
-
 def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, sizes,
           settings: YnetSettings, n_past: int, checkpoint: Path, best_path: Path,
-          history_path: Path, epochs: int | None = None, device: torch.device = torch.device("cpu"),
+          history_path: Path, epochs: int | None = None, device: torch.device = CPU,
           preemption: Preemption = NEVER) -> dict:
     """Train (resuming from `checkpoint` if present); returns the training summary.
 
@@ -331,10 +323,8 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     model = conv_layout(YNet(settings.model_config(n_past, n_future)), device)  # seeded init on CPU
     optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
     rng = np.random.default_rng(settings.seed)
-    train_scenes = [scene.to(device) for scene in
-                    group_by_scene(train_arrays, semantic_maps, sizes, settings.resize)]
-    val_scenes = [scene.to(device) for scene in
-                  group_by_scene(val_arrays, semantic_maps, sizes, settings.resize)]
+    train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize, device)
+    val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize, device)
 
     state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
     partial_losses: list[float] = []
@@ -345,9 +335,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
         model.load_state_dict(saved["model"])
         optimizer.load_state_dict(saved["optimizer"])
         rng.bit_generator.state = saved["rng"]["numpy_plan"]
-        torch.set_rng_state(saved["rng"]["torch"].cpu())
-        if device.type == "cuda" and "torch_cuda" in saved["rng"]:
-            torch.cuda.set_rng_state(saved["rng"]["torch_cuda"].cpu(), device)
+        restore_rng_states(saved["rng"], device)
         state = saved["state"]
         partial_losses = list(saved.get("partial_losses", []))
         print(f"train_ynet: resuming after epoch {state['epoch']}"
@@ -355,8 +343,8 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
 
     def save_checkpoint(plan_state: dict, losses: list[float]) -> None:
         save_atomic({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
-                     "rng": rng_state(plan_state, device), "state": state, "run_id": run_id,
-                     "partial_losses": list(losses)}, checkpoint)
+                     "rng": {"numpy_plan": plan_state, **rng_states(device)}, "state": state,
+                     "run_id": run_id, "partial_losses": list(losses)}, checkpoint)
 
     for epoch in range(state["epoch"] + 1, (epochs or settings.epochs) + 1):
         if preemption.stop_reason():  # the last epoch's checkpoint is already on disk

@@ -16,7 +16,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from pipeline.device import to_device
+from pipeline.device import CPU, to_device
 from pipeline.window_table import WindowArrays
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, pad_to_multiple
 
@@ -58,11 +58,13 @@ def resize_semantic(semantic: np.ndarray, height: int, width: int) -> np.ndarray
 
 
 def group_by_scene(arrays: WindowArrays, semantic_maps: dict[str, np.ndarray],
-                   image_sizes: dict[str, tuple[int, int]], resize: float) -> list[SceneWindows]:
-    """One SceneWindows per scene of `arrays`, in sorted scene order.
+                   image_sizes: dict[str, tuple[int, int]], resize: float,
+                   device: torch.device = CPU) -> list[SceneWindows]:
+    """One SceneWindows per scene of `arrays`, in sorted scene order, its tensors on `device`.
 
     semantic_maps: scene_id -> (C, h, w) probabilities at any resolution; image_sizes: scene_id ->
-    original (height, width), so the map is brought to round(size * resize) exactly.
+    original (height, width), so the map is brought to round(size * resize) exactly. Scenes are
+    moved once here, not per batch or evaluation round.
     """
     scenes = []
     for scene_id in sorted(set(arrays.scene_id)):
@@ -76,7 +78,7 @@ def group_by_scene(arrays: WindowArrays, semantic_maps: dict[str, np.ndarray],
             past=torch.from_numpy(arrays.past[rows] * resize).float(),
             future=torch.from_numpy(arrays.future[rows] * resize).float(),
             index=rows,
-        ))
+        ).to(device))
     return scenes
 
 

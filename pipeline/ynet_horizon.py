@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> None:
     model, settings = load_model(best, device)
     print(f"ynet_horizon: scoring on {describe(device)}")
     torch.set_num_threads(settings.threads)
-    scenes = group_by_scene(test_arrays, semantic_maps, sizes, settings.resize)
+    scenes = group_by_scene(test_arrays, semantic_maps, sizes, settings.resize, device)
     options = sampling_options(eval_params.k_e, 1, ttst, cws, True, True)
     start = time.perf_counter()
     scores = evaluate(model, scenes, settings, options, eval_params, test_arrays.future,

@@ -54,10 +54,9 @@ def setup(request):
 def test_training_epoch_and_validation(setup):
     model, optimizer, settings, train_scenes, rng = setup
     plan = epoch_plan(train_scenes, settings, rng)
-    twin, twin_optimizer = copy.deepcopy(model), copy.deepcopy(optimizer)
-    twin_optimizer.param_groups[0]["params"] = list(twin.parameters())
-    twin_optimizer.state = {t: copy.deepcopy(optimizer.state[p])
-                            for p, t in zip(model.parameters(), twin.parameters())}
+    twin = copy.deepcopy(model)
+    twin_optimizer = torch.optim.Adam(twin.parameters(), lr=1e-3)
+    twin_optimizer.load_state_dict(copy.deepcopy(optimizer.state_dict()))
     with torch.device("meta"):
         loss = train_epoch(model, optimizer, train_scenes, settings, plan, 2, [])
         scores = validate(model, train_scenes, settings)

@@ -83,7 +83,6 @@ def test_paper_profile_trains_evaluates_and_writes_its_metrics(tmp_path, monkeyp
     (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
     write_fixture(tmp_path, params["eval"]["paper"]["qualitative_scenes"])
     monkeypatch.chdir(tmp_path)
-    torch.manual_seed(0)
 
     train_ynet.main(["--windows", "windows/release_tf30.parquet", "--semantic-maps", "semantic_maps",
                      "--sdd", "sdd", "--n-past", str(N_PAST), "--checkpoint-dir", "checkpoints",

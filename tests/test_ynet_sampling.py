@@ -147,22 +147,13 @@ def covariance(prob):
     return mean, torch.einsum("hw,hwi,hwj->ij", prob, v, v)
 
 
-def expected_cws_covariance(direction, sigma, ratio, narrow_along):
-    """The prior's covariance written out by hand: variance a^2 along the unit travel direction u,
-    b^2 across it, so cov = a^2 u u^T + b^2 v v^T with v = u turned by 90 degrees."""
-    u = torch.tensor(direction, dtype=torch.float64)
-    u = u / u.norm()
-    v = torch.stack([-u[1], u[0]])
-    along, across = (sigma / ratio, sigma) if narrow_along else (sigma, sigma / ratio)
-    return along**2 * torch.outer(u, u) + across**2 * torch.outer(v, v)
-
-
-# (travel direction, the covariance of the authors' rot=True prior written out for sigma s, ratio r)
+# Travel direction, and the prior's covariance written out by hand for a variance `along` the
+# travel and `across` it (on the diagonal: u = (1, 1) / sqrt 2, so cov = along u u^T + across v v^T).
 CWS_CASES = {
-    "along x": ((1.0, 0.0), lambda s, r: [[(s / r) ** 2, 0.0], [0.0, s**2]]),
-    "along y": ((0.0, 1.0), lambda s, r: [[s**2, 0.0], [0.0, (s / r) ** 2]]),
-    "diagonal": ((1.0, 1.0), lambda s, r: [[((s / r) ** 2 + s**2) / 2, ((s / r) ** 2 - s**2) / 2],
-                                           [((s / r) ** 2 - s**2) / 2, ((s / r) ** 2 + s**2) / 2]]),
+    "along x": ((1.0, 0.0), lambda along, across: [[along, 0.0], [0.0, across]]),
+    "along y": ((0.0, 1.0), lambda along, across: [[across, 0.0], [0.0, along]]),
+    "diagonal": ((1.0, 1.0), lambda along, across: [[(along + across) / 2, (along - across) / 2],
+                                                     [(along - across) / 2, (along + across) / 2]]),
 }
 
 
@@ -182,10 +173,9 @@ def test_cws_prior_covariance_matches_the_authors_orientation(case, rot):
     assert_close(prior.sum(), torch.tensor(1.0))
     mean, cov = covariance(prior.double())
     assert_close(mean.float(), (last[0] + goal[0, 0]) / 2, atol=1e-3, rtol=0)
-    expected = torch.tensor(written_out(sigma, ratio), dtype=torch.float64)
-    if not rot:  # widths swapped: the rot=True covariance with along and across exchanged
-        expected = expected_cws_covariance(direction, sigma, ratio, narrow_along=False)
-    assert_close(expected_cws_covariance(direction, sigma, ratio, narrow_along=rot), expected)
+    narrow, wide = (sigma / ratio) ** 2, sigma**2
+    along, across = (narrow, wide) if rot else (wide, narrow)
+    expected = torch.tensor(written_out(along, across), dtype=torch.float64)
     # pixel sampling of a continuous Gaussian adds 1/12 px^2 of variance on each axis
     assert_close(cov, expected + torch.eye(2, dtype=torch.float64) / 12, atol=0.05, rtol=1e-2)
 

@@ -46,12 +46,11 @@ import torch
 from torch import nn
 from tqdm import tqdm
 
+from pipeline.device import CPU, restore_rng_states, rng_states, to_device
 from pipeline.device import generator as seeded_generator
-from pipeline.device import to_device
 from pipeline.preemption import NEVER, Preemption
 from pipeline.window_table import WindowArrays, to_arrays
 
-CPU = torch.device("cpu")
 CHECKPOINT_FORMAT = 2
 # Format 1 (before mid-epoch checkpoints) is format 2 without `partial`, `rng_device` and the CUDA
 # RNG state: it was always written on the CPU at the end of an epoch, and resumes as such.
@@ -273,7 +272,8 @@ def run_training(
             "best_epoch": best_epoch, "best_val": best_val, "history": history,
             "train_seconds": seconds, "modules": _state_dicts(modules),
             "optimizers": {k: o.state_dict() for k, o in optimizers.items()},
-            "rng": _rng_state(generator, device), "rng_device": generator.device.type,
+            "rng": {"generator": generator.get_state(), **rng_states(device)},
+            "rng_device": generator.device.type,
             "partial": partial_state,
         }, checkpoint_dir / LAST)
 
@@ -326,14 +326,6 @@ def _state_dicts(modules: dict[str, nn.Module]) -> dict[str, dict[str, torch.Ten
             for k, m in modules.items()}
 
 
-def _rng_state(generator: torch.Generator, device: torch.device) -> dict[str, torch.Tensor]:
-    """The training generator's state, torch's global CPU RNG and, on CUDA, the device's own."""
-    state = {"generator": generator.get_state(), "torch": torch.get_rng_state()}
-    if device.type == "cuda":
-        state["cuda"] = torch.cuda.get_rng_state(device)
-    return state
-
-
 def _restore_rng(state: dict[str, Any], generator: torch.Generator, device: torch.device, path: Path) -> None:
     """Put back the RNG states of a `last.pt`. A generator state only fits a generator of the
     same device type: resumed on another kind of device, the weights, optimizers and position
@@ -348,9 +340,7 @@ def _restore_rng(state: dict[str, Any], generator: torch.Generator, device: torc
         generator.manual_seed(seed)
         tqdm.write(f"{path}: written on {saved_on}, resuming on {generator.device.type}: the training "
                    "generator restarts from a seed derived from its saved state")
-    torch.set_rng_state(rng["torch"])
-    if device.type == "cuda" and "cuda" in rng:
-        torch.cuda.set_rng_state(rng["cuda"], device)
+    restore_rng_states(rng, device)
 
 
 def _resumable_state(path: Path, config: dict[str, Any], data_fingerprint: str) -> dict[str, Any] | None:

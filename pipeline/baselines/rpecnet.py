@@ -25,8 +25,8 @@ import numpy as np
 import torch
 
 from pipeline.baselines import common
-from pipeline.baselines.common import CPU
 from pipeline.baselines.pecnet import Pecnet
+from pipeline.device import CPU
 from pipeline.window_table import WindowArrays
 
 

@@ -28,9 +28,9 @@ import torch.nn.functional as F
 from torch import nn
 
 from pipeline.baselines import common
-from pipeline.baselines.common import CPU, FitResult, as_input, mlp
+from pipeline.baselines.common import FitResult, as_input, mlp
 from pipeline.device import generator as seeded_generator
-from pipeline.device import to_device
+from pipeline.device import CPU, to_device
 from pipeline.metrics import window_errors
 from pipeline.preemption import NEVER, Preemption
 from pipeline.window_table import WindowArrays
