@@ -11,6 +11,7 @@ from ynet.sampling import (
     cws_prior,
     cws_waypoints,
     expected_position,
+    distinct_points,
     kmeans,
     predict,
     sample_positions,
@@ -115,6 +116,18 @@ def test_kmeans_on_distinct_weighted_points_equals_the_plain_algorithm():
     points = sample_positions(prob, 2000, gen(3), rel_threshold=0.01)  # (3, 2000, 2)
     for k in (4, 19):
         assert torch.equal(kmeans(points, k, gen(k)), plain_kmeans(points, k, gen(k)))
+
+
+def test_distinct_points_counts_each_sets_points_including_fractions_and_negatives():
+    points = torch.tensor([[[1.0, 2.0], [1.0, 2.0], [-3.5, 0.25], [1.0, 2.0]],
+                           [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]]])  # (2, 4, 2)
+    unique, weights = distinct_points(points)
+    assert unique.shape == (2, 2, 2) and weights.shape == (2, 2)
+    for b in range(2):  # the same multiset as a per-set torch.unique
+        found = {tuple(u): w for u, w in zip(unique[b].tolist(), weights[b].tolist()) if w > 0}
+        rows, counts = torch.unique(points[b], dim=0, return_counts=True)
+        assert found == {tuple(r): float(c) for r, c in zip(rows.tolist(), counts.tolist())}
+    assert weights[1, 1] == 0 and unique[1, 1].tolist() == [0.0, 0.0]  # padding: the first point
 
 
 def test_kmeans_restarts_empty_clusters():

@@ -127,14 +127,19 @@ def distinct_points(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Each set's distinct points and how often each occurs: (N, P, 2) -> (N, U, 2), (N, U).
 
     Sets with fewer than U distinct points are padded with weight-0 copies of their first point.
+    One `torch.unique` over (set, x, y) rows serves every set at once.
     """
-    rows = [torch.unique(row, dim=0, return_counts=True) for row in points]
-    size = max(len(u) for u, _ in rows)
-    unique = points[:, :1].repeat(1, size, 1)  # (N, U, 2)
-    weights = torch.zeros(len(rows), size, dtype=points.dtype, device=points.device)  # (N, U)
-    for i, (u, counts) in enumerate(rows):
-        unique[i, :len(u)] = u
-        weights[i, :len(u)] = counts.to(points.dtype)
+    n, p, _ = points.shape
+    set_ids = torch.arange(n, dtype=points.dtype, device=points.device)[:, None, None].expand(n, p, 1)
+    rows, counts = torch.unique(torch.cat([set_ids, points], -1).flatten(0, 1), dim=0,
+                                return_counts=True)  # (M, 3) sorted by set, (M,)
+    owner = rows[:, 0].long()  # (M,) the set of each distinct point
+    per_set = torch.bincount(owner, minlength=n)  # (N,)
+    slot = torch.arange(len(rows), device=points.device) - (per_set.cumsum(0) - per_set)[owner]
+    unique = points[:, :1].repeat(1, int(per_set.max()), 1)  # (N, U, 2)
+    weights = torch.zeros(unique.shape[:2], dtype=points.dtype, device=points.device)  # (N, U)
+    unique[owner, slot] = rows[:, 1:]
+    weights[owner, slot] = counts.to(points.dtype)
     return unique, weights
 
 
@@ -151,21 +156,24 @@ def kmeans(
     set; a cluster that empties restarts at a random point; a set stops updating once the squared sum
     of its centres' moves drops below `tol`.
 
-    TTST's points are pixels drawn with replacement, so a set of 10,000 holds a few hundred distinct
-    ones: the iterations run on those, weighted by their counts. Random draws still index the full
-    sets, so the centres are the ones the plain algorithm finds (bit-identical for whole-number
-    points, whose sums are exact in float32).
+    TTST's points are pixels drawn with replacement, so a set of 10,000 holds a few thousand distinct
+    ones: the iterations run on those, weighted by their counts, and sum each cluster with
+    `scatter_add` (no (N, U, k) one-hot). Random draws still index the full sets, so the centres are
+    the ones the plain algorithm finds (bit-identical for whole-number points, whose sums are exact
+    in float32 in any order).
     """
     n, p, _ = points.shape
     first = torch.rand(n, p, generator=generator, device=points.device).argsort(dim=-1)[:, :k]  # (N, k)
     centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))  # (N, k, 2)
     unique, weights = distinct_points(points)  # (N, U, 2), (N, U)
+    weighted = unique * weights[..., None]  # (N, U, 2)
     active = torch.ones(n, dtype=torch.bool, device=points.device)
     for _ in range(max_iter):
         dist = torch.cdist(unique, centres, compute_mode="donot_use_mm_for_euclid_dist")  # (N, U, k)
-        owned = F.one_hot(dist.argmin(-1), k).to(points.dtype) * weights[..., None]  # (N, U, k)
-        counts = owned.sum(1)  # (N, k)
-        new = owned.transpose(1, 2) @ unique / counts.clamp_min(1)[..., None]  # (N, k, 2)
+        nearest = dist.argmin(-1)  # (N, U)
+        counts = points.new_zeros(n, k).scatter_add_(1, nearest, weights)  # (N, k)
+        sums = points.new_zeros(n, k, 2).scatter_add_(1, nearest[..., None].expand(n, -1, 2), weighted)
+        new = sums / counts.clamp_min(1)[..., None]  # (N, k, 2)
         empty = counts == 0
         if empty.any():
             restart = torch.randint(p, (n, k), generator=generator, device=points.device)
@@ -343,9 +351,10 @@ def predict(
     `ynet.model.shared_input_conv`), and only each heatmap's softargmax is kept. Everything runs in
     channels_last (about 1.5x faster convs on CPU).
 
-    `bf16=True` runs the trajectory decoder (85% of the time) under bfloat16 autocast (on the
-    inputs' device): about 1.5x faster on CPUs with AMX / AVX512-BF16, and what GPUs want. Encoder, goal decoder and sampling stay float32, so goals
-    and waypoints (and FDE) are bit-identical to float32; trajectory positions move by a fraction
+    `bf16=True` runs the trajectory decoder (about three quarters of the time on CPU) under
+    bfloat16 autocast (on the inputs' device): about 1.5x faster on CPUs with AMX / AVX512-BF16,
+    and what GPUs want. Encoder, goal decoder and sampling stay float32, so goals and waypoints
+    (and FDE) are bit-identical to float32; trajectory positions move by a fraction
     of a pixel (0.01 px mean, 0.04 px max on an overfitted tiny model like the tests').
     """
     cfg = model.config
