@@ -23,8 +23,8 @@ import numpy as np
 import torch
 
 from pipeline import baselines
-from pipeline.params import load_profile, read_params
-from pipeline.window_table import WindowArrays
+from pipeline.config import load_profile, read_params
+from pipeline.data.window_table import WindowArrays
 
 N_PAST, N_FUTURE = 5, 30
 

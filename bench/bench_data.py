@@ -10,9 +10,10 @@ import statistics
 import time
 from pathlib import Path
 
-from pipeline.checksums import read_manifest
-from pipeline.tracks import build_tracks
-from pipeline.windows import WindowParams, cut_pieces, cut_windows, raw_windows, release_windows
+from pipeline.config import WindowParams
+from pipeline.data.checksums import read_manifest
+from pipeline.data.tracks import build_tracks
+from pipeline.data.windows import cut_pieces, cut_windows, raw_windows, release_windows
 
 
 def timed(fn, repeats: int) -> tuple[list[float], object]:

@@ -29,12 +29,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.device import describe, select_device, synchronize  # noqa: E402
-from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, predict_scenes,  # noqa: E402
-                                    sampling_options)
-from pipeline.params import load_profile, load_section, read_params  # noqa: E402
-from pipeline.train_ynet import YnetSettings, epoch_plan, train_epoch  # noqa: E402
-from pipeline.window_table import WindowArrays  # noqa: E402
-from pipeline.ynet_data import group_by_scene  # noqa: E402
+from pipeline.runners.ynet_scoring import predict_scenes, sampling_options
+from pipeline.config import CwsParams, EvalParams, TtstParams, load_profile, load_section, read_params
+from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch  # noqa: E402
+from pipeline.data.window_table import WindowArrays  # noqa: E402
+from pipeline.data.ynet_data import group_by_scene  # noqa: E402
 from ynet.model import YNet  # noqa: E402
 
 IMAGE_HW = (2048, 1664)  # original pixels of the synthetic scene

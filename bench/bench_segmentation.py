@@ -18,15 +18,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline.labels import read_index
-from pipeline.params import load_profile, read_params
-from pipeline.segmentation import (
-    SegmentationParams,
-    epoch_batches,
-    load_training_scenes,
-    train_step,
-    unet_config,
-)
+from pipeline.data.labels import read_index
+from pipeline.config import SegmentationParams, load_profile, read_params
+from pipeline.runners.segmentation import epoch_batches, load_training_scenes, train_step, unet_config
 from ynet.segmentation import UNet
 
 N_TRAIN_VIDEOS = 30  # TrajNet train videos, for the epoch estimate on synthetic scenes

@@ -18,8 +18,9 @@ import time
 import numpy as np
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_crop.py`
-from pipeline.evaluate_ynet import CwsParams, EvalParams, TtstParams, predict_scenes, sampling_options
-from pipeline.metrics import window_errors
+from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.runners.ynet_scoring import predict_scenes, sampling_options
+from pipeline.harness.metrics import window_errors
 
 
 def outside_share(past: np.ndarray, future: np.ndarray, resize: float, crop: int,

@@ -19,8 +19,8 @@ import numpy as np
 import torch
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_steps.py`
-from pipeline.evaluate_ynet import PAD_CLASS
-from pipeline.ynet_data import window_inputs
+from pipeline.runners.ynet_scoring import PAD_CLASS
+from pipeline.data.ynet_data import window_inputs
 from ynet.heatmaps import distance_maps
 from ynet.sampling import softargmax
 

@@ -13,15 +13,14 @@ from pathlib import Path
 import pandas as pd
 import torch
 
-from pipeline.evaluate_ynet import load_model
-from pipeline.params import load_profile, load_section, read_params
-from pipeline.semantic_maps import load_semantic_maps
-from pipeline.short_term import ShortTermParams, load_ethucy_scenes
-from pipeline.short_term_models import (ETHUCY_SCENES, ShortTermModelsParams, load_benchmark,
-                                        sample_windows, table_path)
-from pipeline.train_ynet import YnetSettings, image_sizes
-from pipeline.window_table import WindowArrays
-from pipeline.ynet_data import SceneWindows, group_by_scene
+from pipeline.runners.ynet_scoring import load_model
+from pipeline.config import ShortTermModelsParams, ShortTermParams, load_profile, load_section, read_params
+from pipeline.data.semantic_maps import load_semantic_maps
+from pipeline.data.short_term import load_ethucy_scenes
+from pipeline.runners.short_term import ETHUCY_SCENES, load_benchmark, sample_windows, table_path
+from pipeline.runners.ynet_training import YnetSettings, image_sizes
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import SceneWindows, group_by_scene
 from ynet.model import YNet
 
 

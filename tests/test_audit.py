@@ -1,6 +1,6 @@
 import numpy as np
 
-from pipeline.audit import compare_video, explain
+from pipeline.data.audit import compare_video, explain
 
 A = ("gates_2", 1, (0, 30, 60))
 B = ("gates_2", 2, (0, 30, 60))

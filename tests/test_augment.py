@@ -6,15 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.augment import (
-    NO_AUGMENT,
-    AugmentParams,
-    crop_centre,
-    photometric,
-    random_crop,
-    sample_warp,
-    warp_pair,
-)
+from pipeline.config import AugmentParams
+from pipeline.data.augment import NO_AUGMENT, crop_centre, photometric, random_crop, sample_warp, warp_pair
 
 PAD = 0
 CROP = 64

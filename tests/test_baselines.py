@@ -13,15 +13,17 @@ import pytest
 import torch
 import yaml
 
-from pipeline import baselines, evaluate_baseline, train_baseline
-from pipeline.baselines import common
-from pipeline.baselines.constant_velocity import ConstantVelocity, extrapolate
-from pipeline.baselines.pecnet import Pecnet, PecnetConfig, reversed_windows
-from pipeline.baselines.rpecnet import RecurrentPecnet, rollout
-from pipeline.baselines.sgan import SganConfig, SocialGan
-from pipeline.metrics import window_errors
-from pipeline.params import PARAMS_FILE, ParamsError, from_dict, load_section, read_params
-from pipeline.window_table import WindowArrays, conform, to_arrays
+from pipeline.harness import baseline_runs, baselines
+from pipeline.stages import evaluate_baseline, train_baseline
+from pipeline.harness.baselines import common
+from pipeline.harness.baselines.constant_velocity import ConstantVelocity, extrapolate
+from pipeline.harness.baselines.pecnet import Pecnet, PecnetConfig, reversed_windows
+from pipeline.harness.baselines.rpecnet import RecurrentPecnet, rollout
+from pipeline.harness.baselines.sgan import SganConfig, SocialGan
+from pipeline.harness.metrics import window_errors
+from pipeline.config import (PARAMS_FILE, EvaluateBaselineParams, ParamsError, TrainBaselineParams,
+                             from_dict, load_section, read_params)
+from pipeline.data.window_table import WindowArrays, conform, to_arrays
 
 torch.set_num_threads(1)
 N_PAST = 5
@@ -279,15 +281,15 @@ def test_params_sections_are_strict():
     models = {"sgan": {"cpu": {"epochs": 1}, "paper": {"epochs": 2}},
               "pecnet": {"cpu": {"epochs": 1}, "paper": {"epochs": 650}}}
     params = {"profile": "paper", "train_baseline": {"seed": 0, "threads": 1}, **models}
-    assert train_baseline.model_config("pecnet", params) == PecnetConfig(epochs=650)
-    assert train_baseline.model_config("sgan", {**params, "profile": "cpu"}) == SganConfig(epochs=1)
+    assert baseline_runs.model_config("pecnet", params) == PecnetConfig(epochs=650)
+    assert baseline_runs.model_config("sgan", {**params, "profile": "cpu"}) == SganConfig(epochs=1)
     for model, bad in [("sgan", {**params, "profile": "gpu"}),  # no such profile
                        ("sgan", {**params, "sgan": {"paper": {"epoch": 1}}}),  # unknown key
                        ("pecnet", {**params, "pecnet": {"paper": {"sigma": -1.0}}})]:  # check fails
         with pytest.raises(ParamsError):
-            train_baseline.model_config(model, bad)
+            baseline_runs.model_config(model, bad)
     with pytest.raises(ParamsError):
-        from_dict(train_baseline.TrainBaselineParams, {"seed": 0, "threads": 1, "profile": "cpu"}, "t")
+        from_dict(TrainBaselineParams, {"seed": 0, "threads": 1, "profile": "cpu"}, "t")
 
 
 def test_params_yaml_sections_parse_when_present():
@@ -295,8 +297,8 @@ def test_params_yaml_sections_parse_when_present():
     sections = ("train_baseline", "evaluate_baseline", "sgan", "pecnet")
     if not any(k in params for k in sections):
         pytest.skip("params.yaml has no baseline sections yet")
-    load_section(train_baseline.TrainBaselineParams, "train_baseline", params)
-    load_section(evaluate_baseline.EvaluateBaselineParams, "evaluate_baseline", params)
+    load_section(TrainBaselineParams, "train_baseline", params)
+    load_section(EvaluateBaselineParams, "evaluate_baseline", params)
     for profile in ("cpu", "paper"):
         for model in baselines.TRAINABLE:
-            train_baseline.model_config(model, {**params, "profile": profile})
+            baseline_runs.model_config(model, {**params, "profile": profile})

@@ -14,14 +14,14 @@ import pytest
 import torch
 import yaml
 
-from pipeline import train_baseline
-from pipeline.baselines import common
-from pipeline.baselines import pecnet as pecnet_module
-from pipeline.baselines import sgan as sgan_module
-from pipeline.baselines.constant_velocity import ConstantVelocity
-from pipeline.baselines.pecnet import Pecnet
-from pipeline.baselines.rpecnet import RecurrentPecnet
-from pipeline.baselines.sgan import SocialGan
+from pipeline.stages import train_baseline
+from pipeline.harness.baselines import common
+from pipeline.harness.baselines import pecnet as pecnet_module
+from pipeline.harness.baselines import sgan as sgan_module
+from pipeline.harness.baselines.constant_velocity import ConstantVelocity
+from pipeline.harness.baselines.pecnet import Pecnet
+from pipeline.harness.baselines.rpecnet import RecurrentPecnet
+from pipeline.harness.baselines.sgan import SocialGan
 from pipeline.device import generator as seeded_generator
 from pipeline.preemption import EXIT_BUDGET, Preemption, StopRequested
 from tests.test_baselines import N_PAST, TINY_PECNET, TINY_SGAN, state_of, straight_tracks, window_table

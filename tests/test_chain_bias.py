@@ -1,8 +1,8 @@
 import pandas as pd
 import pytest
 
-from pipeline.chain_bias import chain_bias
-from pipeline.windows import WindowParams
+from pipeline.config import WindowParams
+from pipeline.harness.chain_bias import chain_bias
 
 STRIDE = 30
 

@@ -4,7 +4,7 @@ import pickle
 import pandas as pd
 import pytest
 
-from pipeline.checksums import ChecksumError, load_verified_pickle, read_manifest, sha256_file
+from pipeline.data.checksums import ChecksumError, load_verified_pickle, read_manifest, sha256_file
 
 
 def test_manifest_round_trip(tmp_path):

@@ -3,9 +3,8 @@
 import pytest
 import torch
 
-from pipeline.device import (RuntimeParams, autocast, conv_layout, generator, parse_device_name,
-                             resolve_device, to_device)
-from pipeline.params import ParamsError, load_section
+from pipeline.device import autocast, conv_layout, generator, resolve_device, to_device
+from pipeline.config import ParamsError, RuntimeParams, load_section, parse_device_name
 
 
 @pytest.mark.parametrize("name, parsed", [("auto", ("auto", None)), ("cpu", ("cpu", None)),

@@ -1,6 +1,6 @@
 """Every stage declares what it runs and reads, so `dvc repro` re-runs it when any of that changes.
 
-Code: the project modules a stage's `python -m pipeline.<module>` imports, followed through every
+Code: the project modules a stage's `python -m pipeline.stages.<stage>` imports, followed through every
 import inside `pipeline` and `ynet` (a package's `__init__.py` counts when it holds code), must all
 be in the stage's `deps`. Files: every path on the command line must be a declared dep or output
 (or lie inside one, or be the folder of declared outputs), except `dvc.lock`, which the report reads for its provenance and which
@@ -115,8 +115,9 @@ def test_every_path_on_the_command_line_is_a_dep_or_an_output(stage):
 
 def test_the_closure_follows_imports_through_packages():
     """A check of the checker: train_baseline reaches every model through the registry."""
-    closure = code_closure("pipeline.train_baseline")
-    assert {"pipeline/baselines/__init__.py", "pipeline/baselines/sgan.py",
-            "pipeline/baselines/pecnet.py", "pipeline/device.py"} <= closure
+    closure = code_closure("pipeline.stages.train_baseline")
+    assert {"pipeline/harness/baselines/__init__.py", "pipeline/harness/baselines/sgan.py",
+            "pipeline/harness/baselines/pecnet.py", "pipeline/device.py"} <= closure
     assert "pipeline/__init__.py" not in closure  # a docstring only
-    assert "ynet/model.py" in code_closure("pipeline.evaluate_ynet")
+    assert "pipeline/stages/__init__.py" not in closure
+    assert "ynet/model.py" in code_closure("pipeline.stages.evaluate_ynet")

@@ -4,7 +4,8 @@ import threading
 
 import pytest
 
-from pipeline.fetch import FetchError, FetchParams, fetch_source
+from pipeline.config import FetchParams
+from pipeline.data.fetch import FetchError, fetch_source
 from tests.fixtures import write_manifest
 
 

@@ -2,9 +2,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.horizon_windows import ChainError, chain_pieces, horizon_table
-from pipeline.window_table import conform
-from pipeline.windows import WindowParams, count_windows
+from pipeline.config import WindowParams
+from pipeline.data.horizon_windows import ChainError, chain_pieces, horizon_table
+from pipeline.data.window_table import conform
+from pipeline.data.windows import count_windows
 
 STRIDE = 30
 

@@ -27,20 +27,18 @@ import pytest
 import torch
 import yaml
 
-from pipeline import ind, ind_benchmark
-from pipeline.baselines.pecnet import PecnetConfig
-from pipeline.baselines.sgan import SganConfig
-from pipeline.evaluate_baseline import EvaluateBaselineParams
-from pipeline.evaluate_ynet import CwsParams, EvalParams, TtstParams
-from pipeline.ind import DataParams, IndError, IndParams
-from pipeline.ind_benchmark import BenchmarkSettings, IndBenchmarkParams
-from pipeline.labels import MaskError
-from pipeline.params import ParamsError, from_dict, load_profile, load_section, read_params
-from pipeline.segmentation import SegmentationParams, export_model
-from pipeline.train_baseline import TrainBaselineParams
-from pipeline.train_ynet import YnetSettings
-from pipeline.window_table import COLUMNS
-from pipeline.windows import WindowParams
+from pipeline.data import ind
+from pipeline.runners import ind as ind_benchmark
+from pipeline.stages import ind_windows
+from pipeline.harness.baselines.pecnet import PecnetConfig
+from pipeline.harness.baselines.sgan import SganConfig
+from pipeline.data.ind import IndError
+from pipeline.runners.ind import BenchmarkSettings
+from pipeline.data.labels import MaskError
+from pipeline.config import CwsParams, DataParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams, IndParams, ParamsError, SegmentationParams, TrainBaselineParams, TtstParams, WindowParams, from_dict, load_profile, load_section, read_params
+from pipeline.runners.segmentation import export_model
+from pipeline.runners.ynet_training import YnetSettings
+from pipeline.data.window_table import COLUMNS
 from ynet.segmentation import UNet, UNetConfig
 
 REPO = Path(__file__).resolve().parents[1]
@@ -314,11 +312,11 @@ def test_failed_run_leaves_the_previous_outputs(tmp_path, monkeypatch):
     root = write_ind_copy(tmp_path / "copy")
     monkeypatch.chdir(tmp_path)
     write_params(tmp_path, path=str(root))
-    ind.main(["--out", "out", "--metrics", "m.json"])
+    ind_windows.main(["--out", "out", "--metrics", "m.json"])
     before = {p: p.read_bytes() for p in [*(tmp_path / "out").rglob("*.*"), tmp_path / "m.json"]}
     break_copy(root, "missing column")
     with pytest.raises(SystemExit, match=r"ind_windows: .*08_tracks\.csv: missing column"):
-        ind.main(["--out", "out", "--metrics", "m.json"])
+        ind_windows.main(["--out", "out", "--metrics", "m.json"])
     assert {p: p.read_bytes() for p in before} == before
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
 
@@ -438,7 +436,7 @@ def test_dvc_repro_without_and_with_the_path(tmp_path):
     dvc(["init", "--no-scm", "-q"], repo)
     write_tiny_unet(repo / "data" / "segmentation" / "model.pt")  # stands in for stage segmentation
 
-    dvc(["repro", "--single-item", "ind_windows", "ind_benchmark"], repo)
+    dvc(["repro", "--single-item", "ind_windows", "train_ind", "evaluate_ind"], repo)
     windows = json.loads((repo / "metrics/ind_windows.json").read_text())
     assert windows["provided"] is False and "data.ind.path" in windows["reason"]
     assert windows["windows"] == {"tf30": {"train": 0, "val": 0, "test": 0},
@@ -449,7 +447,7 @@ def test_dvc_repro_without_and_with_the_path(tmp_path):
     root = write_ind_copy(tmp_path / "copy")
     params = yaml.safe_load((repo / "params.yaml").read_text())
     write_params(repo, path=str(root), **tiny_profile(params))
-    dvc(["repro", "--single-item", "ind_windows", "ind_benchmark"], repo)
+    dvc(["repro", "--single-item", "ind_windows", "train_ind", "evaluate_ind"], repo)
     windows = json.loads((repo / "metrics/ind_windows.json").read_text())
     assert windows["provided"] is True and windows["windows"] == EXPECTED
     benchmark = json.loads((repo / "metrics/ind_benchmark.json").read_text())

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.metrics import ade_fde, goal_errors, step_errors, summarize, window_errors
+from pipeline.harness.metrics import ade_fde, goal_errors, step_errors, summarize, window_errors
 
 # Window 0: sample 0 is best on ADE (errors 0, 4 -> ADE 2, FDE 4), sample 1 best on FDE (3, 3 ->
 # ADE 3, FDE 3): the independent minima (2, 3) mix samples, the joint FDE is 4.

@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, predict_scenes, qualitative,
-                                    sampling_options)
-from pipeline.train_ynet import YnetSettings, epoch_plan, train_epoch, validate
-from pipeline.window_table import WindowArrays
-from pipeline.ynet_data import group_by_scene
+from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.runners.ynet_scoring import predict_scenes, qualitative, sampling_options
+from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch, validate
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import group_by_scene
 from ynet.model import YNet
 
 N_PAST, N_FUTURE = 3, 4

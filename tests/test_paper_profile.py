@@ -16,9 +16,9 @@ import pytest
 import torch
 import yaml
 
-from pipeline import evaluate_ynet, train_ynet
-from pipeline.semantic_maps import quantise
-from pipeline.window_table import conform
+from pipeline.stages import evaluate_ynet, train_ynet
+from pipeline.data.semantic_maps import quantise
+from pipeline.data.window_table import conform
 
 REPO = Path(__file__).resolve().parents[1]
 IMAGE_HW = (256, 320)  # original pixels; the paper's resize 0.25 gives 64 x 80 maps

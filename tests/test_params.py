@@ -4,19 +4,9 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from pipeline.fetch import FetchParams
-from pipeline.labels import LabelsParams
-from pipeline.segmentation import SegmentationParams
-from pipeline.semantic_maps import SemanticParams
-from pipeline.params import ParamsError, from_dict, load_section, read_params
-from pipeline.splits import SplitParams
-from pipeline.tracks import CompatParams
-from pipeline.evaluate_ynet import CwsParams, EvalParams, TtstParams
-from pipeline.params import load_profile
-from pipeline.report import ReportParams
-from pipeline.train_ynet import YnetSettings
-from pipeline.windows import WindowParams
-from pipeline.ynet_horizon import HorizonParams
+from pipeline.config import CompatParams, CwsParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
+from pipeline.config import load_profile
+from pipeline.runners.ynet_training import YnetSettings
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,

@@ -1,7 +1,7 @@
 """The report stage: every table cell is measured, quoted from the paper or explained; the page
 parses, opens from the file system, and its figures load in a real browser.
 
-Fixtures are metrics files in the contracts' formats (see `pipeline.report`'s docstring), written
+Fixtures are metrics files in the contracts' formats (see `pipeline.report.page`'s docstring), written
 here; the Chromium test needs Debian's `chromium` (`tests/setup_chromium.sh`): without it the test
 skips locally and fails in CI.
 """
@@ -21,11 +21,12 @@ import numpy as np
 import pytest
 import yaml
 
-from pipeline import report
-from pipeline.params import ParamsError, from_dict
+from pipeline.report import page as report
+from pipeline.stages import report as report_stage
+from pipeline.config import ParamsError, from_dict
 
 REPO = Path(__file__).resolve().parents[1]
-PAPER = REPO / "pipeline" / "paper_values.yaml"
+PAPER = REPO / "pipeline" / "report" / "paper_values.yaml"
 PAPER_TEX = REPO.parent / "shared" / "paper" / "ynet-paper.tex"
 BANDS = report.ReportParams(close=0.05, far=0.20)
 HORIZONS = [5, 10, 15, 20, 30, 40, 50, 60]
@@ -145,8 +146,11 @@ def project(tmp_path: Path) -> Path:
     (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
     (tmp_path / "manifests").mkdir()
     (tmp_path / "manifests" / "sdd.sha256").write_text("ab" * 32 + "  annotations/x.txt\n")
-    (tmp_path / "dvc.lock").write_text(yaml.safe_dump({"schema": "2.0", "stages": {"fetch@sdd": {
-        "outs": [{"path": "data/raw/sdd", "md5": "0e5e7977cdd07682f5a28f53a640c3ba.dir", "nfiles": 86}]}}}))
+    (tmp_path / "dvc.lock").write_text(yaml.safe_dump({"schema": "2.0", "stages": {
+        "fetch@sdd": {"outs": [{"path": "data/raw/sdd", "md5": "0e5e7977cdd07682f5a28f53a640c3ba.dir",
+                                "nfiles": 86}]},
+        "windows": {"params": {"params.yaml": {"windows": params["windows"]}}},
+        "train_ynet": {"params": {"params.yaml": {"profile": "cpu", "ynet.cpu": params["ynet"]["cpu"]}}}}}))
     (tmp_path / "reports" / "data").mkdir(parents=True)
     (tmp_path / "reports" / "data" / "windows_per_scene.json").write_text(json.dumps(
         {"raw": {"tf30": {"test": {"gates_2": 10}, "train": {"gates_4": 4}}},
@@ -155,16 +159,16 @@ def project(tmp_path: Path) -> Path:
 
 
 def run_report(root: Path) -> Path:
-    """`python -m pipeline.report` on `root`'s inputs; returns the page's path."""
+    """`python -m pipeline.stages.report` on `root`'s inputs; returns the page's path."""
     out = root / "reports" / "index.html"
-    report.main([
+    report_stage.main([
         "--metrics", str(root / "metrics"), "--paper", str(PAPER), "--params", str(root / "params.yaml"),
         "--scene-counts", str(root / "reports/data/windows_per_scene.json"),
         "--segmentation-figures", str(root / "reports/figures/segmentation"),
         "--qualitative", str(root / "data/ynet_predictions/qualitative.npz"),
         "--manifests", str(root / "manifests"), "--dvc-lock", str(root / "dvc.lock"),
         "--out", str(out), "--figures", str(root / "reports/figures/report"),
-        "--plots", str(root / "reports/plots")])
+        "--plots", str(root / "reports/plots"), "--headline", str(root / "reports/headline")])
     return out
 
 
@@ -530,3 +534,22 @@ def test_a_horizon_not_run_by_the_profile_says_not_run_not_invalid(project):
     html = run_report(project).read_text()
     assert 'title="not trained at 15 s in this profile">not run<' in html
     assert ">invalid<" not in html
+
+
+def test_headline_metrics_hold_our_ade_and_fde_per_table_and_model(project):
+    full_project(project)
+    headline = project / "reports/headline"
+    main = json.loads((project / "metrics/ynet_eval.json").read_text())["main"]
+    ynet = json.loads((headline / "table3_sdd_long/sdd_y_net_k_a_1.json").read_text())
+    assert ynet == {"ade": main["ade"]["mean"], "fde": main["fde"]["mean"]}
+    files = sorted(headline.rglob("*.json"))
+    assert len(files) > 5
+    assert all(set(json.loads(f.read_text())) <= {"ade", "fde"} for f in files)  # two DVC columns
+    assert not (headline / "table3_sdd_long/ind_y_net_k_a_1.json").exists()  # nothing unmeasured
+
+
+def test_page_shows_the_params_dvc_lock_recorded_not_params_yaml(project):
+    (project / "params.yaml").write_text((project / "params.yaml").read_text() + "unread_section: 7\n")
+    html = full_project(project).read_text()
+    assert "unread_section" not in html
+    assert "release_horizon" in html  # windows, as the lock's `windows` stage recorded it

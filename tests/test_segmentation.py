@@ -13,30 +13,10 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.labels import LabelsParams, import_labels
-from pipeline.params import ParamsError, load_profile, load_section, read_params
-from pipeline.segmentation import (
-    SegmentationParams,
-    downsample_pair,
-    export_model,
-    fingerprint,
-    learning_rate,
-    load_checkpoint,
-    load_model,
-    pad_to_multiple,
-    scaled_size,
-    train,
-)
-from pipeline.semantic_maps import (
-    SemanticParams,
-    build_maps,
-    dequantise,
-    iou_summary,
-    load_semantic_maps,
-    one_hot_map,
-    predicted_labels,
-    quantise,
-)
+from pipeline.data.labels import import_labels
+from pipeline.config import LabelsParams, ParamsError, SegmentationParams, SemanticParams, load_profile, load_section, read_params
+from pipeline.runners.segmentation import downsample_pair, export_model, fingerprint, learning_rate, load_checkpoint, load_model, pad_to_multiple, scaled_size, train
+from pipeline.data.semantic_maps import build_maps, dequantise, iou_summary, load_semantic_maps, one_hot_map, predicted_labels, quantise
 from ynet.segmentation import (
     N_OUTPUTS,
     PAD_CLASS,

@@ -13,22 +13,26 @@ import pytest
 import torch
 import yaml
 
-import pipeline.segmentation as segmentation
-from pipeline.labels import LabelsParams, import_labels
+import pipeline.runners.segmentation as segmentation
+from pipeline.stages import segmentation as segmentation_stage
+from pipeline.stages import semantic_maps as semantic_maps_stage
+from pipeline.config import LabelsParams
+from pipeline.data.labels import import_labels
+from pipeline.io import save_torch
 from pipeline.preemption import EXIT_BUDGET, Preemption, StopRequested
-from pipeline.segmentation import (
+from pipeline.runners.segmentation import (
     CHECKPOINT_FORMAT,
     epoch_batches,
     export_model,
     fingerprint,
     load_checkpoint,
     load_model,
-    save_torch,
     train,
     train_step,
     unet_config,
 )
-from pipeline.semantic_maps import iou_summary, predict_probabilities, predicted_labels
+from pipeline.data.semantic_maps import (iou_summary, load_semantic_maps, predict_probabilities,
+                                         predicted_labels)
 from tests.test_segmentation import synthetic_scene, tiny_params, tiny_scenes, write_scene_fixture
 from ynet.segmentation import N_OUTPUTS, UNet, confusion_matrix, dice_loss, iou_from_confusion
 
@@ -179,8 +183,9 @@ def test_format_1_end_of_epoch_checkpoint_still_resumes(tmp_path, capsys):
     straight, log = train(scenes, params, tmp_path / "a.pt", run_id, progress=False)
     train(scenes, params, tmp_path / "b.pt", run_id, stop_after=1, progress=False)
     state = load_checkpoint(tmp_path / "b.pt")
-    save_torch(tmp_path / "b.pt", {"format": 1, "fingerprint": run_id, "model": state["model"],
-                                   "optimiser": state["optimiser"], "log": state["log"]})
+    save_torch(in_memory=True, path=tmp_path / "b.pt",
+               payload={"format": 1, "fingerprint": run_id, "model": state["model"],
+                        "optimiser": state["optimiser"], "log": state["log"]})
     resumed, resumed_log = train(scenes, params, tmp_path / "b.pt", run_id)
     assert "resuming after epoch 1" in capsys.readouterr().out
     assert [r["loss"] for r in resumed_log] == [r["loss"] for r in log]
@@ -190,7 +195,8 @@ def test_format_1_end_of_epoch_checkpoint_still_resumes(tmp_path, capsys):
 def test_checkpoint_of_an_unknown_format_starts_afresh(tmp_path, capsys):
     params, scenes = tiny_params(epochs=1, batch_size=1), tiny_scenes()
     run_id = fingerprint(params, ["a", "b"], scenes)
-    save_torch(tmp_path / "c.pt", {"format": 99, "fingerprint": run_id, "log": [{"epoch": 1}]})
+    save_torch(in_memory=True, path=tmp_path / "c.pt",
+               payload={"format": 99, "fingerprint": run_id, "log": [{"epoch": 1}]})
     _, log = train(scenes, params, tmp_path / "c.pt", run_id)
     out = capsys.readouterr().out
     assert "checkpoint format 99" in out and "starting afresh" in out
@@ -227,12 +233,12 @@ def stage_args(tmp_path: Path, monkeypatch, name: str, max_minutes: float) -> Pa
 def test_stage_main_stops_on_its_budget_with_exit_75_and_resumes_to_the_same_model(
         tmp_path, monkeypatch, capsys):
     straight = stage_args(tmp_path, monkeypatch, "straight", 0)
-    segmentation.main()
+    segmentation_stage.main()
     pieces = stage_args(tmp_path, monkeypatch, "pieces", 1e-9)  # stops after every step
     stops = 0
     while True:
         try:
-            segmentation.main()
+            segmentation_stage.main()
             break
         except SystemExit as stop:
             assert stop.code == EXIT_BUDGET
@@ -251,24 +257,23 @@ def test_stage_main_stops_on_its_budget_with_exit_75_and_resumes_to_the_same_mod
 
 def test_stage_main_exits_143_on_sigterm_and_resumes_to_the_same_model(tmp_path, monkeypatch):
     straight = stage_args(tmp_path, monkeypatch, "straight", 0)
-    segmentation.main()
+    segmentation_stage.main()
     killed = stage_args(tmp_path, monkeypatch, "killed", 0)
     real_step, handler = segmentation.step_loss, signal.getsignal(signal.SIGTERM)
     stop_at(monkeypatch, 4, lambda: os.kill(os.getpid(), signal.SIGTERM))  # 1st step of epoch 2
     with pytest.raises(SystemExit) as stopped:
-        segmentation.main()
+        segmentation_stage.main()
     assert stopped.value.code == 143 and signal.getsignal(signal.SIGTERM) == handler
     position = load_checkpoint(tmp_path / "killed.ckpt")["position"]
     assert (position["epoch"], position["step"]) == (1, 1) and not killed.exists()
     monkeypatch.setattr(segmentation, "step_loss", real_step)
-    segmentation.main()
+    segmentation_stage.main()
     a, _ = load_model(straight)
     b, _ = load_model(killed)
     assert_same_weights(a, b)
 
 
 def test_semantic_maps_main_reads_the_runtime_section(tmp_path, monkeypatch, capsys):
-    from pipeline import semantic_maps
     stage_args(tmp_path, monkeypatch, "unused", 0)  # fixture, labels, cwd
     params = tiny_params()
     export_model(tmp_path / "model.pt", UNet(unet_config(params)), params, "cpu", ["gates_1"],
@@ -279,7 +284,7 @@ def test_semantic_maps_main_reads_the_runtime_section(tmp_path, monkeypatch, cap
     monkeypatch.setattr(sys, "argv", [
         "semantic_maps", "--sdd", "sdd", "--labels", "labels", "--model", "model.pt",
         "--out", "maps", "--metrics", "m.json", "--figures", "figures"])
-    semantic_maps.main()
+    semantic_maps_stage.main()
     assert "on cpu (" in capsys.readouterr().out
-    maps = semantic_maps.load_semantic_maps(tmp_path / "maps")
+    maps = load_semantic_maps(tmp_path / "maps")
     assert sorted(maps) == ["gates_1", "gates_2"] and maps["gates_1"].shape == (N_OUTPUTS, 16, 16)

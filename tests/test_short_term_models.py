@@ -1,8 +1,8 @@
 """Short-term stages on tiny synthetic benchmarks: Y-net / S-GAN / PECNet train, score and write the
 run layout; ETH/UCY errors come back in metres; the merged files fill the report's Tables 1 and 2.
 
-Fixtures are written here in the stages' formats: window tables (`pipeline.window_table` schema plus
-x_m, y_m), the ETH/UCY scene folder (`maps.npz` + `index.json`, as `pipeline.short_term` writes it),
+Fixtures are written here in the stages' formats: window tables (`pipeline.data.window_table` schema plus
+x_m, y_m), the ETH/UCY scene folder (`maps.npz` + `index.json`, as `pipeline.data.short_term` writes it),
 SDD maps and reference images, and a params.yaml with tiny settings.
 """
 
@@ -20,18 +20,19 @@ import pytest
 import torch
 import yaml
 
-from pipeline import report
-from pipeline.homography import metres_to_pixels
-from pipeline.metrics import window_errors
-from pipeline.params import load_profile, read_params
-from pipeline.semantic_maps import quantise
-from pipeline.short_term import EthUcySceneInfo, load_ethucy_scenes
-from pipeline.baselines.common import subset
-from pipeline.short_term_models import (DATASETS, ShortTermModelsParams,
-                                        load_benchmark, main, to_metres, ynet_settings)
-from pipeline.short_term_tables import main as tables_main
-from pipeline.train_ynet import YnetSettings, train
-from pipeline.window_table import WindowArrays
+from pipeline.report import page as report
+from pipeline.data.homography import metres_to_pixels
+from pipeline.harness.metrics import window_errors
+from pipeline.config import DATASETS, ShortTermModelsParams, load_profile, read_params
+from pipeline.data.semantic_maps import quantise
+from pipeline.data.short_term import EthUcySceneInfo, load_ethucy_scenes
+from pipeline.harness.baselines.common import subset
+from pipeline.runners.short_term import load_benchmark, to_metres, ynet_settings
+from pipeline.stages import (evaluate_short_term_baseline, evaluate_short_term_ynet,
+                             train_short_term_baseline, train_short_term_ynet)
+from pipeline.stages.short_term_tables import main as tables_main
+from pipeline.runners.ynet_training import YnetSettings, train
+from pipeline.data.window_table import WindowArrays
 
 REPO = Path(__file__).resolve().parents[1]
 N_PAST, N_FUTURE = 8, 12
@@ -69,7 +70,7 @@ def window_table(parts: list[tuple[str, str, np.ndarray]], to_metres=None) -> pd
 
 
 def write_maps(folder: Path, names, channels: int, hw=(60, 80)) -> None:
-    """`maps.npz` as pipeline.semantic_maps stores it: uint8 probabilities per scene."""
+    """`maps.npz` as pipeline.data.semantic_maps stores it: uint8 probabilities per scene."""
     folder.mkdir(parents=True, exist_ok=True)
     maps = np.zeros((channels, *hw), np.float32)
     maps[1:] = 1.0 / (channels - 1)
@@ -146,10 +147,18 @@ def project(tmp_path_factory) -> Path:
         for dataset, model in (("eth", "ynet"), ("eth", "sgan"), ("eth", "pecnet"), ("sdd", "ynet"),
                                ("sdd", "pecnet"), ("hotel", "ynet")):
             maps = windows / "ethucy_semantic" if dataset != "sdd" else root / "semantic_maps"
-            main(["--dataset", dataset, "--model", model, "--windows", str(windows),
-                  "--maps", str(maps), "--sdd", str(root / "sdd"),
-                  "--checkpoint-dir", str(root / "checkpoints" / f"{dataset}_{model}"),
-                  "--metrics", str(runs / f"{dataset}_{model}.json")])
+            common = ["--dataset", dataset, "--windows", str(windows),
+                      "--checkpoint-dir", str(root / "checkpoints" / f"{dataset}_{model}")]
+            trained = root / "metrics" / "short_term" / "train" / f"{dataset}_{model}.json"
+            if model == "ynet":
+                common += ["--maps", str(maps), "--sdd", str(root / "sdd")]
+                stages = train_short_term_ynet, evaluate_short_term_ynet
+            else:
+                common += ["--model", model]
+                stages = train_short_term_baseline, evaluate_short_term_baseline
+            stages[0].main([*common, "--metrics", str(trained)])
+            stages[1].main([*common, "--train-metrics", str(trained),
+                            "--metrics", str(runs / f"{dataset}_{model}.json")])
         tables_main(["--runs", str(runs), "--out", str(root / "metrics" / "short_term")])
     finally:
         os.chdir(cwd)
@@ -332,7 +341,7 @@ def test_merged_files_have_the_report_layout(project):
 
 
 def test_the_report_shows_the_merged_numbers_as_measured(project):
-    paper = yaml.safe_load((REPO / "pipeline" / "paper_values.yaml").read_text())
+    paper = yaml.safe_load((REPO / "pipeline" / "report" / "paper_values.yaml").read_text())
     store = report.load_metrics(project / "metrics")
     bands = report.ReportParams(close=0.05, far=0.2)
     table1 = report.table_sdd_short(paper["sdd_short"], store, bands)

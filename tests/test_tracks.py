@@ -1,6 +1,6 @@
 import pytest
 
-from pipeline.tracks import AnnotationError, build_tracks, parse_annotations
+from pipeline.data.tracks import AnnotationError, build_tracks, parse_annotations
 from tests.fixtures import annotation_lines, write_annotations
 
 

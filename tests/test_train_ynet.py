@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline import train_ynet
+from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.runners import ynet_training as train_ynet
 
-from pipeline.evaluate_ynet import (CwsParams, EvalParams, TtstParams, evaluate, load_model,
-                                    sampling_options)
-from pipeline.train_ynet import YnetSettings, run_fingerprint, scale_waypoints, train
+from pipeline.runners.ynet_scoring import evaluate, load_model, sampling_options
+from pipeline.runners.ynet_training import YnetSettings, run_fingerprint, scale_waypoints, train
 from pipeline.preemption import Preemption, StopRequested
-from pipeline.window_table import WindowArrays
-from pipeline.ynet_data import group_by_scene
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import group_by_scene
 from ynet.heatmaps import upstream_max_distance
 
 N_PAST, N_FUTURE = 3, 4

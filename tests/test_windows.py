@@ -2,10 +2,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.tracks import build_tracks
-from pipeline.window_table import to_arrays
-from pipeline.windows import (ReleaseError, WindowParams, count_windows, cut_pieces, cut_windows,
-                              raw_windows, validate_release)
+from pipeline.config import WindowParams
+from pipeline.data.tracks import build_tracks
+from pipeline.data.window_table import to_arrays
+from pipeline.data.windows import ReleaseError, count_windows, cut_pieces, cut_windows, raw_windows, validate_release
 from tests.fixtures import STRIDE, annotation_lines, release_rows, write_annotations
 
 

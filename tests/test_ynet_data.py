@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.window_table import WindowArrays
-from pipeline.ynet_data import (AUGMENTATIONS, SceneWindows, agent_crops, augment,
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import (AUGMENTATIONS, SceneWindows, agent_crops, augment,
                                 cropped_training_batch, group_by_scene, model_input,
                                 padded_semantic, training_batch, window_inputs)
 

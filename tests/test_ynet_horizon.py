@@ -2,8 +2,8 @@
 
 import pytest
 
-from pipeline.params import ParamsError, load_profile, read_params
-from pipeline.ynet_horizon import HorizonParams, not_run_record
+from pipeline.config import HorizonParams, ParamsError, load_profile, read_params
+from pipeline.runners.ynet_horizon import not_run_record
 
 HORIZONS = [5, 10, 15, 20, 40, 50, 60]  # dvc.yaml's ynet_horizon foreach (30 is the main Y-net)
 

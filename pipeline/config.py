@@ -1,0 +1,684 @@
+"""Typed access to `params.yaml`: every section a stage reads, as a dataclass, and how to load it.
+
+Each dataclass documents its fields and checks them in `__post_init__`. `load_section` builds one
+from the YAML and fails loudly on unknown or missing keys, so a typo in `params.yaml` or in
+`dvc exp run -S ...` is an error, not a silent default. `load_profile` picks a profiled section's
+entry for the active `profile`. Two settings classes stay beside the code that needs their heavy
+imports: `YnetSettings` (`pipeline.runners.ynet_training`, builds a `ynet.model.YNetConfig`) and the
+baselines' configs (`pipeline.harness.baselines`); `tests/test_params.py` checks them all against
+`params.yaml`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import typing
+import urllib.parse
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TypeVar
+
+import yaml
+
+from pipeline.data.splits import FOLD_TEST_SCENES, SDD_RAW_FPS, TRAIN_VIDEOS
+
+T = TypeVar("T")
+
+PARAMS_FILE = Path("params.yaml")
+
+
+class ParamsError(ValueError):
+    """`params.yaml` does not match what a stage expects."""
+
+
+def read_params(path: Path | str = PARAMS_FILE) -> dict[str, Any]:
+    path = Path(path)
+    try:
+        with path.open() as f:
+            params = yaml.safe_load(f)
+    except FileNotFoundError as e:
+        raise ParamsError(f"{path}: not found (run stages from the repository root)") from e
+    if not isinstance(params, dict):
+        raise ParamsError(f"{path}: expected a mapping at the top level")
+    return params
+
+
+def from_dict(cls: type[T], values: Any, where: str) -> T:
+    """Build dataclass `cls` from a mapping; nested dataclass fields recurse."""
+    if not isinstance(values, dict):
+        raise ParamsError(f"{where}: expected a mapping, got {type(values).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ParamsError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(fields)}")
+    hints = typing.get_type_hints(cls)
+    kwargs = {}
+    for name, value in values.items():
+        hint = hints[name]
+        if dataclasses.is_dataclass(hint):
+            value = from_dict(hint, value, f"{where}.{name}")
+        kwargs[name] = value
+    missing = [
+        n for n, f in fields.items()
+        if n not in kwargs and f.default is dataclasses.MISSING
+        and f.default_factory is dataclasses.MISSING
+    ]
+    if missing:
+        raise ParamsError(f"{where}: missing key(s) {missing}")
+    try:
+        return cls(**kwargs)
+    except (TypeError, ValueError) as e:
+        raise ParamsError(f"{where}: {e}") from e
+
+
+def load_section(cls: type[T], key: str, params: dict[str, Any] | None = None) -> T:
+    """The section `key` of `params.yaml` (or of `params`) as a `cls` instance."""
+    params = read_params() if params is None else params
+    if key not in params:
+        raise ParamsError(f"params.yaml: missing section '{key}'")
+    return from_dict(cls, params[key], f"params.yaml:{key}")
+
+
+def load_profile(cls: type[T], key: str, params: dict[str, Any] | None = None) -> T:
+    """Section `key` for the active `profile` (params.yaml `profile: cpu|paper`) as a `cls`.
+
+    Such a section holds one sub-mapping per profile, e.g. `ynet: {cpu: {...}, paper: {...}}`, so
+    `dvc exp run -S profile=paper` switches every profiled stage at once.
+    """
+    params = read_params() if params is None else params
+    profile = params.get("profile")
+    if key not in params:
+        raise ParamsError(f"params.yaml: missing section '{key}'")
+    if not isinstance(params[key], dict) or profile not in params[key]:
+        raise ParamsError(f"params.yaml:{key}: no settings for profile {profile!r}; "
+                          f"profiles here: {sorted(params[key]) if isinstance(params[key], dict) else []}")
+    return from_dict(cls, params[key][profile], f"params.yaml:{key}.{profile}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Runtime: where torch runs, how long a training call may take
+
+
+@dataclass
+class RuntimeParams:
+    """Section `runtime` of params.yaml: where torch runs and how long a training call may take."""
+
+    device: str = "auto"
+    """auto (CUDA when available) | cpu | cuda | cuda:N."""
+    max_minutes: float = 0.0
+    """Training stages save a mid-epoch checkpoint and stop (exit code 75) after this many minutes
+    of one invocation; the next `dvc repro` resumes. 0 = no limit."""
+
+    def __post_init__(self):
+        parse_device_name(self.device)  # raises on a malformed name
+        if self.max_minutes < 0:
+            raise ValueError(f"max_minutes must be >= 0 (0 = no limit), got {self.max_minutes}")
+
+
+def parse_device_name(name: str) -> tuple[str, int | None]:
+    """'auto' | 'cpu' | 'cuda' | 'cuda:N' -> (kind, index); anything else is a ValueError."""
+    if name in ("auto", "cpu", "cuda"):
+        return name, None
+    kind, _, index = name.partition(":")
+    if kind == "cuda" and index.isdigit():
+        return kind, int(index)
+    raise ValueError(f"device must be auto, cpu, cuda or cuda:N, got {name!r}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Data: sources, tracks, windows, splits
+
+
+FETCH_SOURCES = ("sdd", "ynet-release", "sgan", "trajnet-sdd", "ethucy-scenes")
+
+
+@dataclass
+class FetchParams:
+    sources: list[str] = field(default_factory=lambda: list(FETCH_SOURCES))
+    """Sources to fetch; one `fetch@<source>` stage each."""
+    locations: list[str] = field(default_factory=lambda: ["../shared/data"])
+    """Ordered bases to try: a local folder or an http(s) URL; `<base>/<source>/` holds the source."""
+    timeout_s: float = 60.0
+    """Per-request timeout for http(s) locations."""
+
+    def __post_init__(self):
+        unknown = sorted(set(self.sources) - set(FETCH_SOURCES))
+        if unknown:
+            raise ValueError(f"unknown source(s) {unknown}; known: {list(FETCH_SOURCES)}")
+        if not self.locations:
+            raise ValueError("locations: at least one location is needed")
+        for location in self.locations:
+            if is_url(location) is None:
+                raise ValueError(f"location {location!r}: not a folder path or an http(s) URL")
+
+
+def is_url(location: str) -> bool | None:
+    """True for http(s) URLs, False for local paths, None for other schemes (rejected)."""
+    scheme = urllib.parse.urlparse(location).scheme
+    if scheme in ("http", "https"):
+        return True
+    if scheme in ("", "file") or len(scheme) == 1:  # "C:" on Windows counts as a path
+        return False
+    return None
+
+
+@dataclass
+class CompatParams:
+    drop_first_row: bool = False
+    """Reproduce the authors' `read_csv(header=0)` bug: drop the first annotation of every file."""
+
+
+@dataclass
+class SplitParams:
+    val_videos: list[str] = field(default_factory=list)
+    """Train videos held out for validation (model selection); whole videos, never test ones."""
+
+    def __post_init__(self):
+        not_train = sorted(set(self.val_videos) - TRAIN_VIDEOS)
+        if not_train:
+            raise ValueError(f"val_videos must be TrajNet train videos; not train: {not_train}")
+
+
+@dataclass
+class WindowParams:
+    n_past: int = 5
+    """Observed steps (n_p) at the target frame rate."""
+    horizons: list[int] = field(default_factory=lambda: [5, 10, 15, 20, 30, 40, 50, 60])
+    """Prediction horizons t_f in seconds; one window table each."""
+    raw_fps: int = 30
+    """Frame rate of the raw annotations."""
+    target_fps: int = 1
+    """Frame rate of the windows; raw_fps must be a multiple of it."""
+    label: str = "Pedestrian"
+    """Agent class kept."""
+    release_horizon: int = 30
+    """t_f of the authors' released windows."""
+
+    def __post_init__(self):
+        if self.n_past < 2:
+            raise ValueError("n_past must be at least 2 (a velocity needs two points)")
+        if not self.horizons or min(self.horizons) < 1:
+            raise ValueError("horizons must be a non-empty list of positive seconds")
+        if self.raw_fps % self.target_fps:
+            raise ValueError(f"raw_fps {self.raw_fps} is not a multiple of target_fps {self.target_fps}")
+
+    @property
+    def stride(self) -> int:
+        """Raw frames between two kept frames."""
+        return self.raw_fps // self.target_fps
+
+    def window_length(self, t_f: int) -> int:
+        return self.n_past + t_f * self.target_fps
+
+
+@dataclass(frozen=True)
+class IndParams:
+    """Section `data.ind` of params.yaml: where the user's own copy of inD is."""
+
+    path: str = ""
+    """The inD release folder (holding data/XX_tracks.csv), absolute or relative to the repository
+    root; empty: inD is not provided (the stages record why and the report says so)."""
+    labels: str = ""
+    """Optional folder of hand-labelled masks XX_background_mask.png (values 1-5, the SDD classes of
+    `ynet.segmentation.CLASS_NAMES`, the size of XX_background.png); they fine-tune the segmentation
+    net. Empty: the SDD-trained net segments the backgrounds unchanged."""
+    val_recordings: list[int] = field(default_factory=lambda: [7, 18, 30])
+    """Whole train recordings held out for model selection (never location-4 recordings)."""
+
+    def __post_init__(self) -> None:
+        for name in ("path", "labels"):
+            value = getattr(self, name)
+            if value is None:  # `path:` with nothing after it in YAML
+                object.__setattr__(self, name, "")
+            elif not isinstance(value, str):
+                raise ValueError(f"{name} must be a folder path (a string), got {value!r}")
+        if self.labels and not self.path:
+            raise ValueError("labels is set but path is empty: masks need the inD copy they label")
+        if (not isinstance(self.val_recordings, list)
+                or any(not isinstance(r, int) or isinstance(r, bool) or r < 0 for r in self.val_recordings)
+                or len(set(self.val_recordings)) != len(self.val_recordings)):
+            raise ValueError(f"val_recordings must be a list of distinct recording numbers, "
+                             f"got {self.val_recordings!r}")
+
+    @property
+    def provided(self) -> bool:
+        return bool(self.path)
+
+
+@dataclass(frozen=True)
+class DataParams:
+    """Section `data` of params.yaml: data the user supplies from outside the repository."""
+
+    ind: IndParams
+    """inD (licence-restricted, never redistributed)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Scene segmentation: labels, U-Net, semantic maps
+
+
+@dataclass(frozen=True)
+class LabelsParams:
+    """How the report overlays of the hand labels look (the label maps themselves are lossless)."""
+
+    overlay_scale: float = 0.25
+    """Overlays are written at this fraction of the original image size."""
+    overlay_alpha: float = 0.45
+    """Weight of the class colour over the image in the overlays."""
+
+    def __post_init__(self) -> None:
+        if not 0 < self.overlay_scale <= 1:
+            raise ValueError(f"overlay_scale must be in (0, 1], got {self.overlay_scale}")
+        if not 0 <= self.overlay_alpha <= 1:
+            raise ValueError(f"overlay_alpha must be in [0, 1], got {self.overlay_alpha}")
+
+
+@dataclass(frozen=True)
+class AugmentParams:
+    """Ranges of the random augmentations (all zero / False = plain random crops)."""
+
+    rotate_deg: float = 180.0
+    """Rotation angle drawn uniformly from [-rotate_deg, rotate_deg]; drone views have no 'up'."""
+    flip: bool = True
+    """Mirror with probability 1/2 (with free rotation this covers vertical flips too)."""
+    scale_min: float = 0.75
+    """Smallest zoom factor; factors are log-uniform in [scale_min, scale_max] (>1 zooms out)."""
+    scale_max: float = 1.33
+    """Largest zoom factor."""
+    perspective: float = 0.05
+    """Each crop corner moves by up to this fraction of the crop size (perspective distortion)."""
+    noise_std: float = 0.03
+    """Gaussian pixel noise with std drawn uniformly from [0, noise_std] (image in [0, 1])."""
+    blur_prob: float = 0.3
+    """Probability of a Gaussian blur."""
+    blur_sigma: float = 1.5
+    """Blur sigma drawn uniformly from [0.3, blur_sigma] pixels."""
+    brightness: float = 0.15
+    """Additive brightness shift drawn uniformly from [-brightness, brightness]."""
+    contrast: float = 0.25
+    """Contrast factor drawn uniformly from [1 - contrast, 1 + contrast] about the crop mean."""
+    colour: float = 0.1
+    """Per-channel gain drawn uniformly from [1 - colour, 1 + colour] (colour cast)."""
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.rotate_deg <= 180:
+            raise ValueError(f"rotate_deg must be in [0, 180], got {self.rotate_deg}")
+        if not 0 < self.scale_min <= self.scale_max:
+            raise ValueError(f"need 0 < scale_min <= scale_max, got {self.scale_min}, {self.scale_max}")
+        if not 0 <= self.perspective < 0.25:
+            raise ValueError(f"perspective must be in [0, 0.25), got {self.perspective}")
+        if not 0 <= self.blur_prob <= 1:
+            raise ValueError(f"blur_prob must be in [0, 1], got {self.blur_prob}")
+        if self.blur_sigma < 0.3:
+            raise ValueError(f"blur_sigma must be >= 0.3, got {self.blur_sigma}")
+        for name in ("noise_std", "brightness"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("contrast", "colour"):
+            if not 0 <= getattr(self, name) < 1:
+                raise ValueError(f"{name} must be in [0, 1), got {getattr(self, name)}")
+
+
+@dataclass(frozen=True)
+class SegmentationParams:
+    """Section `segmentation` of params.yaml, one per profile (`segmentation: {cpu: ..., paper: ...}`)."""
+
+    base_channels: int
+    """U-Net width of the first level, doubled at every level down (cpu: 16; paper: 32)."""
+    depth: int
+    """Number of 2x downsamplings of the U-Net; `pad_multiple` and `crop` must divide by 2**depth."""
+    epochs: int
+    """Passes over the training videos."""
+    crops_per_image: int
+    """Random crops drawn from every training video per epoch (paper: 1, one per image)."""
+    lr_drop_epoch: int
+    """From this epoch on the learning rate is multiplied by `lr_drop_factor` (paper: 1500)."""
+    bf16: bool
+    """On the CPU, bfloat16 autocast + channels-last: ~3x faster on CPUs with AMX/AVX512-BF16, slow
+    elsewhere. On CUDA both are always on, whatever this says (`pipeline.device.autocast`)."""
+    seed: int = 0
+    """Seeds weight init and the crop/augmentation stream (one numpy stream per epoch)."""
+    downsample: int = 4
+    """Images and labels are shrunk by this factor (paper: 4 for SDD); Y-net's resize is 1/downsample."""
+    pad_multiple: int = 32
+    """Downsampled images are padded (padding class) to a multiple of this (paper: 32)."""
+    crop: int = 256
+    """Side of the square training crops (paper: 256)."""
+    batch_size: int = 4
+    """Crops per optimiser step (paper: 4)."""
+    lr: float = 1e-4
+    """Adam learning rate (paper: 1e-4)."""
+    lr_drop_factor: float = 0.1
+    """Learning-rate factor from `lr_drop_epoch` on (paper: 1e-4 -> 1e-5)."""
+    augment: AugmentParams = field(default_factory=AugmentParams)
+    """Ranges of the random augmentations."""
+
+    def __post_init__(self) -> None:
+        for name in ("base_channels", "depth", "epochs", "crops_per_image", "downsample",
+                     "pad_multiple", "crop", "batch_size"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.lr_drop_epoch < 0:
+            raise ValueError(f"lr_drop_epoch must be >= 0, got {self.lr_drop_epoch}")
+        if not self.lr > 0 or not 0 < self.lr_drop_factor <= 1:
+            raise ValueError(f"need lr > 0 and 0 < lr_drop_factor <= 1, got {self.lr}, "
+                             f"{self.lr_drop_factor}")
+        if self.pad_multiple % 2**self.depth or self.crop % 2**self.depth:
+            raise ValueError(f"depth={self.depth}: pad_multiple ({self.pad_multiple}) and crop "
+                             f"({self.crop}) must be divisible by 2**depth")
+
+
+SEMANTIC_SOURCES = ("predicted", "labels")
+
+
+@dataclass(frozen=True)
+class SemanticParams:
+    """Section `semantic` of params.yaml: which scene maps Y-net gets, and at what resolution."""
+
+    source: str = "predicted"
+    """'predicted' (the U-Net's softmax) or 'labels' (one-hot hand labels: the oracle ablation)."""
+    resize: float = 0.25
+    """Maps are stored at this fraction of the original image size (Y-net's SDD resize, 0.25)."""
+
+    def __post_init__(self) -> None:
+        if self.source not in SEMANTIC_SOURCES:
+            raise ValueError(f"source must be one of {SEMANTIC_SOURCES}, got {self.source!r}")
+        if not 0 < self.resize <= 1:
+            raise ValueError(f"resize must be in (0, 1], got {self.resize}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Y-net scoring and the Y-net horizons (Y-net's own settings: runners.ynet_training.YnetSettings)
+
+
+@dataclass
+class TtstParams:
+    temperature: float = 1.8
+    """Goal and waypoint maps are sigmoid(logits / temperature) before sampling."""
+    rel_threshold: float = 0.002
+    """Pixels below rel_threshold * max are never sampled."""
+
+
+@dataclass
+class CwsParams:
+    sigma_factor: float = 6.0
+    """Prior sigma = (distance + 5) / sigma_factor."""
+    ratio: float = 2.0
+    """Prior sigma across the direction of travel is divided by this."""
+    rot: bool = True
+    """Rotate the prior to the direction of travel."""
+
+
+@dataclass
+class EvalParams:
+    k_e: int = 20
+    """Goals per window for the main result."""
+    k_a: int = 1
+    """Paths per goal for the main result."""
+    rounds: int = 3
+    """Seeded evaluation rounds of the main result; mean and spread are reported."""
+    ablation_rounds: int = 1
+    """Rounds of each Table 3 ablation row (0 = skip the ablation)."""
+    ka_grid_k_e: list[int] = field(default_factory=lambda: [20])
+    """K_e values of the K_a figure's grid (empty = skip the grid)."""
+    ka_grid_k_a: list[int] = field(default_factory=lambda: [1, 2, 5])
+    """K_a values of the K_a figure's grid."""
+    seed: int = 0
+    """Round r uses seed + r."""
+    batch_size: int = 4
+    """Windows per forward pass (one scene per batch)."""
+    chunk_size: int = 4
+    """Samples per window decoded together by the trajectory decoder."""
+    bf16: bool = False
+    """bfloat16 autocast for the convolutions (faster on CPUs with AMX; positions change slightly)."""
+    qualitative_scenes: list[str] = field(default_factory=lambda: ["hyang_0", "little_2", "nexus_6"])
+    """Test scenes whose longest-moving window is drawn in the qualitative figure."""
+
+    def __post_init__(self):
+        if min(self.k_e, self.k_a, self.rounds, self.batch_size, self.chunk_size) < 1:
+            raise ValueError("k_e, k_a, rounds, batch_size and chunk_size must be positive")
+
+
+@dataclass(frozen=True)
+class HorizonParams:
+    """Section `ynet_horizons.<profile>` of params.yaml."""
+
+    epochs: dict[int, int] = field(default_factory=dict)
+    """Horizon (s) -> training epochs, for the horizons this profile trains Y-net at (the other
+    settings are `ynet.<profile>`'s); any other horizon gets a 'not run' record."""
+    rounds: int = 3
+    """Evaluation rounds (TTST + CWS, K_e from `eval.<profile>`, K_a = 1)."""
+    why_subset: str = ""
+    """Shown in the report for a horizon this profile does not train."""
+
+    def __post_init__(self):
+        if self.rounds < 1 or any(int(e) < 1 for e in self.epochs.values()):
+            raise ValueError("epochs and rounds must be >= 1")
+
+    @property
+    def horizons(self) -> list[int]:
+        return sorted(int(h) for h in self.epochs)
+
+
+# ---------------------------------------------------------------------------------------------
+# Baselines (each model's own config: pipeline.harness.baselines)
+
+
+@dataclass
+class TrainBaselineParams:
+    seed: int
+    """Seed of all randomness in training (initialisation, batches, noise)."""
+    threads: int
+    """torch CPU threads."""
+
+    def __post_init__(self):
+        if self.threads < 1:
+            raise ValueError("threads must be >= 1")
+
+
+@dataclass
+class EvaluateBaselineParams:
+    k: int
+    """Samples per window; the metric takes the best of them (paper: 20)."""
+    split: str
+    """Split scored: `test` for the benchmark, `val` while developing."""
+    rounds: int
+    """Independently seeded sampling rounds (seeds seed, seed+1, ...); mean and spread reported."""
+    seed: int
+    """Seed of the first round."""
+    threads: int
+    """torch CPU threads."""
+
+    def __post_init__(self):
+        if self.k < 1 or self.rounds < 1 or self.threads < 1:
+            raise ValueError("k, rounds and threads must be >= 1")
+        if self.split not in ("train", "val", "test"):
+            raise ValueError(f"split must be train, val or test, got {self.split!r}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Short-term benchmarks
+
+
+@dataclass(frozen=True)
+class ShortTermParams:
+    """Section `short_term` of params.yaml: the short-term windows and the ETH/UCY maps."""
+
+    n_past: int = 8
+    """Observed steps n_p (3.2 s at 2.5 FPS)."""
+    n_future: int = 12
+    """Predicted steps n_f (4.8 s); n_past + n_future = 20 is what the TrajNet SDD files hold."""
+    fps: float = 2.5
+    """Frame rate of the windows."""
+    sdd_ratio_version: str = "A"
+    """Row of `H_SDD.txt` (A or B) whose metres-per-pixel ratio converts TrajNet metres to pixels."""
+    sdd_val_videos: list[str] = field(
+        default_factory=lambda: ["bookstore_2", "deathCircle_3", "gates_8", "hyang_6", "nexus_7"])
+    """Whole TrajNet train videos held out for model selection (never test videos)."""
+    ethucy_folds: list[str] = field(default_factory=lambda: list(FOLD_TEST_SCENES))
+    """Leave-one-scene-out folds to build (SGAN's folders)."""
+    ethucy_min_agents: int = 2
+    """A 20-frame run gives windows only if this many pedestrians are in all of it (SGAN: 2)."""
+    ethucy_map_downsample: float = 1.5
+    """The ETH/UCY maps are stored at 1 / this of the oracle's size (Y-net's ETH/UCY resize)."""
+
+    def __post_init__(self) -> None:
+        if self.n_past < 2 or self.n_future < 1:
+            raise ValueError("n_past must be at least 2 and n_future at least 1")
+        if self.fps <= 0 or (SDD_RAW_FPS / self.fps) % 1:
+            raise ValueError(f"fps must divide SDD's {SDD_RAW_FPS} FPS, got {self.fps}")
+        if self.sdd_ratio_version not in ("A", "B"):
+            raise ValueError(f"sdd_ratio_version must be 'A' or 'B', got {self.sdd_ratio_version!r}")
+        not_train = sorted(set(self.sdd_val_videos) - TRAIN_VIDEOS)
+        if not_train:
+            raise ValueError(f"sdd_val_videos must be TrajNet train videos; not train: {not_train}")
+        unknown = sorted(set(self.ethucy_folds) - set(FOLD_TEST_SCENES))
+        if unknown or not self.ethucy_folds or len(set(self.ethucy_folds)) < len(self.ethucy_folds):
+            raise ValueError(f"ethucy_folds must be distinct folds of {sorted(FOLD_TEST_SCENES)}, "
+                             f"got {self.ethucy_folds}")
+        if self.ethucy_min_agents < 1:
+            raise ValueError("ethucy_min_agents must be at least 1")
+        if self.ethucy_map_downsample < 1:
+            raise ValueError("ethucy_map_downsample must be at least 1")
+
+    @property
+    def window_length(self) -> int:
+        return self.n_past + self.n_future
+
+    @property
+    def sdd_frame_step(self) -> int:
+        """Raw SDD frames between two window steps (12 at 2.5 FPS)."""
+        return int(SDD_RAW_FPS / self.fps)
+
+    @property
+    def ethucy_resize(self) -> float:
+        return 1.0 / self.ethucy_map_downsample
+
+
+DATASETS = ("sdd", *FOLD_TEST_SCENES)  # sdd, then the five ETH/UCY folds
+
+
+MODELS = ("ynet", "sgan", "pecnet")
+
+
+BENCHMARKS = ("sdd", "ethucy")
+
+
+@dataclass
+class YnetScale:
+    """Y-net's map scale on one benchmark and the Gaussian ground truth that goes with it."""
+
+    resize: float
+    """Maps and coordinates relative to the original image (authors: SDD 0.25, ETH/UCY 1 / 1.5)."""
+    kernel_size: int
+    """Side of the Gaussian ground-truth kernel, pixels of the resized map (authors: 31)."""
+    sigma: float
+    """Its standard deviation, pixels of the resized map (authors: 4)."""
+    crop: int = 0
+    """Side of the window around each agent the model sees (`YnetSettings.crop`); 0 = whole scene."""
+    crop_lead_steps: float = 0.0
+    """The window is centred this many steps of the last observed velocity ahead of the agent."""
+
+    def __post_init__(self):
+        if not 0 < self.resize <= 1 or self.sigma <= 0 or self.kernel_size % 2 != 1:
+            raise ValueError("need 0 < resize <= 1, sigma > 0 and an odd kernel_size")
+
+
+@dataclass
+class ShortTermModelsParams:
+    """Section `short_term_models.<profile>` of params.yaml."""
+
+    epochs: dict[str, dict[str, int]]
+    """Model (ynet, sgan, pecnet) -> benchmark (sdd, ethucy: each fold) -> training epochs."""
+    ynet_steps_per_epoch: int
+    """Y-net optimiser steps per epoch, about (windows drawn afresh each epoch); 0 = every window."""
+    ynet_learning_rate: float | None
+    """Y-net's Adam learning rate here; None = `ynet.<profile>`'s (the long-term model's)."""
+    val_windows: int
+    """Validation windows that select the epoch (a fixed seeded sample); 0 = all of them."""
+    ynet_sdd: YnetScale
+    ynet_ethucy: YnetScale
+    ynet_datasets: list[str]
+    """Datasets this profile trains and scores Y-net on; any other gets a not-run record."""
+    why_subset: str
+    """Shown in the report for a dataset outside `ynet_datasets`."""
+    temperature: float
+    """TTST temperature of the short-term setting (authors: 1.0)."""
+    rel_threshold: float
+    """TTST: goal pixels below rel_threshold * max are never sampled (authors: 0.01)."""
+    k_sdd: list[int]
+    """K values scored on SDD (Table 1: 20 and 5)."""
+    k_ethucy: list[int]
+    """K values scored on ETH/UCY (Table 2: 20)."""
+    rounds: int
+    """Seeded evaluation rounds; mean and spread are reported."""
+    seed: int
+    """Round r samples with seed + r; also draws the validation sample."""
+    eval_batch_size: int
+    """Y-net: test windows per forward pass (one scene per batch)."""
+    eval_chunk_size: int
+    """Y-net: samples per window decoded together by the trajectory decoder."""
+    bf16: bool
+    """Y-net: bfloat16 autocast for the trajectory decoder (`ynet.sampling.predict`)."""
+
+    def __post_init__(self):
+        if set(self.epochs) != set(MODELS) or any(
+                set(e) != set(BENCHMARKS) or min(e.values()) < 1 for e in self.epochs.values()):
+            raise ValueError(f"epochs must give every model {list(MODELS)} positive epochs for "
+                             f"each of {list(BENCHMARKS)}, got {self.epochs}")
+        if self.ynet_steps_per_epoch < 0 or self.val_windows < 0:
+            raise ValueError("ynet_steps_per_epoch and val_windows must be >= 0 (0 = all)")
+        if self.ynet_learning_rate is not None and self.ynet_learning_rate <= 0:
+            raise ValueError(f"ynet_learning_rate must be positive or null, got {self.ynet_learning_rate}")
+        unknown = sorted(set(self.ynet_datasets) - set(DATASETS))
+        if unknown:
+            raise ValueError(f"ynet_datasets: unknown dataset(s) {unknown}; known: {list(DATASETS)}")
+        if not self.k_sdd or not self.k_ethucy or min(self.k_sdd + self.k_ethucy) < 1:
+            raise ValueError("k_sdd and k_ethucy must be non-empty lists of positive K")
+        if self.rounds < 1 or self.temperature <= 0 or not 0 <= self.rel_threshold < 1:
+            raise ValueError("need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1")
+        if min(self.eval_batch_size, self.eval_chunk_size) < 1:
+            raise ValueError("eval_batch_size and eval_chunk_size must be positive")
+
+    def ks(self, dataset: str) -> list[int]:
+        return self.k_sdd if dataset == "sdd" else self.k_ethucy
+
+    def eval_params(self) -> EvalParams:
+        """What `evaluate_ynet.predict_scenes` reads (seeds are passed per round)."""
+        return EvalParams(k_e=max(self.k_sdd + self.k_ethucy), k_a=1, rounds=self.rounds,
+                          seed=self.seed, batch_size=self.eval_batch_size,
+                          chunk_size=self.eval_chunk_size, bf16=self.bf16)
+
+
+# ---------------------------------------------------------------------------------------------
+# inD and the report
+
+
+@dataclass(frozen=True)
+class IndBenchmarkParams:
+    """Section `ind_benchmark.<profile>` of params.yaml: what differs on inD from SDD."""
+
+    ynet_resize: float
+    """Y-net's map and coordinate scale on inD backgrounds (authors: 0.33; SDD 0.25)."""
+    segmentation_downsample: int
+    """The U-Net sees inD backgrounds downsampled by this factor (paper: 3; SDD 4)."""
+    freeze_encoder_epochs: int
+    """Fine-tuning epochs (of `segmentation.<profile>.epochs`) with the U-Net encoder frozen."""
+
+    def __post_init__(self) -> None:
+        if not 0 < self.ynet_resize <= 1:
+            raise ValueError(f"ynet_resize must be in (0, 1], got {self.ynet_resize}")
+        if self.segmentation_downsample < 1 or self.freeze_encoder_epochs < 0:
+            raise ValueError("need segmentation_downsample >= 1 and freeze_encoder_epochs >= 0")
+
+
+@dataclass
+class ReportParams:
+    close: float
+    """|ours - paper| / paper at or below this is shown green ("reproduced")."""
+    far: float
+    """Above this it is red; amber between `close` and `far`."""
+
+    def __post_init__(self):
+        if not 0 <= self.close < self.far:
+            raise ValueError(f"need 0 <= close < far, got close={self.close}, far={self.far}")

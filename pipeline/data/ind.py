@@ -1,0 +1,385 @@
+"""The inD long-term windows, cut from the user's own copy of inD (stage `ind_windows`).
+
+inD (the Intersection Drone Dataset) is licence-restricted: this project never fetches, stores or
+redistributes it. A user who holds a copy sets `data.ind.path` in params.yaml to the release folder
+(the one holding `data/XX_tracks.csv`); with the path empty the stage still succeeds and writes an
+explicit "not provided" record and empty tables, so every later stage and the report run.
+
+Recipe (paper, "Intersection Drone Dataset"; upstream fact 7), per recording `XX` of
+`<path>/data/`, in the official inD format (`XX_tracks.csv`, `XX_tracksMeta.csv`,
+`XX_recordingMeta.csv`, `XX_background.png`):
+- keep the tracks whose `class` is "pedestrian" (tracksMeta);
+- world metres -> pixels of the recording's background image: x_px = x / (orthoPxToMeter * 12),
+  y_px = -y / (orthoPxToMeter * 12) (the backgrounds are the orthophoto downscaled 12 times, and
+  the world y axis points up where image rows go down);
+- split a track wherever its frame step is not 1, keep every (frameRate / target_fps)-th frame of
+  each piece (25 -> 1 FPS), cut non-overlapping windows of n_p + t_f steps from each piece's start
+  (the SDD recipe, `pipeline.data.windows.cut_pieces` / `cut_windows`);
+- split: test = location 4 (recordings 00-06, unseen in training), val = the whole train recordings
+  listed in `data.ind.val_recordings` (model selection never sees test), train = the rest.
+One scene per recording (`ind_loc<location>_rec<XX>`); its background image is the scene image.
+
+Outputs (`--out`, replaced as a whole only when everything succeeded): `tf30.parquet` (the
+benchmark, t_f = 30 s) and `tf5.parquet` (t_f = 5 s: R-PECNet's PECNet trains on it) in the shared
+window-table schema (`pipeline.data.window_table`; `frame` is the raw 25 FPS frame), `index.json`
+(scenes: recording, location, split, image size, files), `backgrounds/<scene>.png` and, with
+`data.ind.labels`, the validated masks `labels/<scene>.png`. `--metrics`: window counts, what was
+kept and a fingerprint of the files read.
+
+The copy lies outside the repository, so DVC cannot watch it: after changing the files at the same
+path, run `dvc repro -f ind_windows`; the fingerprint in the metrics then shows the change.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import re
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+
+from pipeline.config import IndParams, WindowParams
+from pipeline.data.labels import validate_mask
+from pipeline.data.window_table import COLUMNS, conform
+from pipeline.data.windows import count_windows, cut_pieces, cut_windows
+from pipeline.io import atomic_dir, write_json
+
+# Columns of the official inD format this stage reads (the files hold more; see the inD
+# documentation: tracks also carry heading, width, length, velocities and accelerations).
+TRACK_COLUMNS = {"recordingId": "int64", "trackId": "int64", "frame": "int64",
+                 "xCenter": "float64", "yCenter": "float64"}
+TRACKS_META_COLUMNS = {"recordingId": "int64", "trackId": "int64", "class": "str"}
+RECORDING_META_COLUMNS = {"recordingId": "int64", "locationId": "int64", "frameRate": "float64",
+                          "orthoPxToMeter": "float64"}
+
+PEDESTRIAN = "pedestrian"  # the one `class` kept (others: car, truck_bus, bicycle)
+BACKGROUND_SCALE = 12  # XX_background.png is the orthophoto downscaled 12x (upstream fact 7)
+# Paper: location 4 (recordings 00-06) is used only at test time, to test on an unseen place.
+TEST_LOCATION = 4
+LONG_TERM_HORIZON = 30  # t_f (s) of the benchmark (paper Table 3)
+RPECNET_HORIZON = 5  # t_f (s) of the PECNet that R-PECNet rolls out (= RecurrentPecnet.base_horizon)
+HORIZONS = (LONG_TERM_HORIZON, RPECNET_HORIZON)
+SOURCE = "raw"  # window-table `source`: cut here from the annotations
+RECORDING_FILE = re.compile(r"^(?P<recording>\d{2})_recordingMeta\.csv$")
+MASK_FILE = re.compile(r"^(?P<recording>\d{2})_background_mask\.png$")
+
+NOT_PROVIDED_REASON = (
+    "inD is licence-restricted and not redistributed; set data.ind.path in params.yaml to your copy "
+    "of the inD release (the folder holding data/XX_tracks.csv) and run `dvc repro`")
+
+
+class IndError(ValueError):
+    """The inD copy (or the settings pointing at it) cannot be used as it is."""
+
+
+
+
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One inD recording: its metadata and its pedestrian positions in background pixels."""
+
+    recording: int
+    location: int
+    frame_rate: float
+    ortho_px_to_meter: float
+    stride: int  # raw frames per target step
+    background: Path
+    image_hw: tuple[int, int]
+    positions: pd.DataFrame  # scene_id, track_id, frame, x, y (pedestrians only)
+    class_counts: dict[str, int]  # tracks per class, before filtering
+
+    @property
+    def scene_id(self) -> str:
+        return scene_id(self.location, self.recording)
+
+
+def scene_id(location: int, recording: int) -> str:
+    return f"ind_loc{location}_rec{recording:02d}"
+
+
+def world_to_pixels(x, y, ortho_px_to_meter: float, scale: float = BACKGROUND_SCALE):
+    """inD world metres -> background-image pixels (x to the right, y down the image rows).
+
+    One background pixel is `ortho_px_to_meter * scale` metres; the world y axis points up, image
+    rows go down, hence the sign.
+    """
+    metres_per_pixel = ortho_px_to_meter * scale
+    return np.asarray(x) / metres_per_pixel, -np.asarray(y) / metres_per_pixel
+
+
+def frame_stride(frame_rate: float, target_fps: int, where: str) -> int:
+    """Raw frames per target step; an error unless the frame rate is a whole multiple of the target."""
+    ratio = frame_rate / target_fps
+    if not (math.isfinite(ratio) and ratio >= 1 and abs(ratio - round(ratio)) < 1e-9):
+        raise IndError(f"{where}: frameRate {frame_rate:g} is not a multiple of the target "
+                       f"{target_fps} FPS (windows.target_fps)")
+    return int(round(ratio))
+
+
+def read_table(path: Path, columns: dict[str, str]) -> pd.DataFrame:
+    """The `columns` (name -> dtype) of a CSV, or an IndError naming the file and what is wrong."""
+    if not path.is_file():
+        raise IndError(f"{path}: missing file (expected the official inD layout <path>/data/XX_*.csv)")
+    try:
+        header = pd.read_csv(path, nrows=0).columns
+    except ValueError as e:  # empty file, undecodable bytes, broken quoting
+        raise IndError(f"{path}: cannot be read as a CSV file ({e})") from e
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise IndError(f"{path}: missing column(s) {missing}; found {list(header)}")
+    try:
+        return pd.read_csv(path, usecols=list(columns), dtype=columns)
+    except ValueError as e:  # e.g. a non-numeric value in a numeric column
+        raise IndError(f"{path}: cannot be read as the inD CSV format ({e})") from e
+
+
+def list_recordings(data_dir: Path) -> list[int]:
+    """The recording numbers of `<path>/data` (one XX_recordingMeta.csv each)."""
+    if not data_dir.is_dir():
+        raise IndError(f"{data_dir}: not a folder; data.ind.path must be the inD release folder "
+                       "holding data/XX_tracks.csv")
+    found = sorted(int(m["recording"]) for p in data_dir.iterdir()
+                   if (m := RECORDING_FILE.match(p.name)))
+    if not found:
+        raise IndError(f"{data_dir}: no XX_recordingMeta.csv; expected the official inD layout "
+                       "data/XX_tracks.csv, XX_tracksMeta.csv, XX_recordingMeta.csv, XX_background.png")
+    return found
+
+
+def read_recording(data_dir: Path, recording: int, target_fps: int) -> Recording:
+    """Read and check one recording; pedestrians only, positions in background pixels."""
+    prefix = f"{recording:02d}_"
+    meta_path = data_dir / f"{prefix}recordingMeta.csv"
+    meta = read_table(meta_path, RECORDING_META_COLUMNS)
+    if len(meta) != 1:
+        raise IndError(f"{meta_path}: expected one row, found {len(meta)}")
+    row = meta.iloc[0]
+    if int(row["recordingId"]) != recording:
+        raise IndError(f"{meta_path}: recordingId {row['recordingId']} differs from the file name")
+    frame_rate, ortho = float(row["frameRate"]), float(row["orthoPxToMeter"])
+    if not (math.isfinite(ortho) and ortho > 0):
+        raise IndError(f"{meta_path}: orthoPxToMeter must be a positive number, got {ortho}")
+    stride = frame_stride(frame_rate, target_fps, str(meta_path))
+
+    background = data_dir / f"{prefix}background.png"
+    if not background.is_file():
+        raise IndError(f"{background}: missing file (the recording's scene image)")
+    image = cv2.imread(str(background), cv2.IMREAD_COLOR)
+    if image is None:
+        raise IndError(f"{background}: cannot be read as an image")
+
+    tracks_meta_path = data_dir / f"{prefix}tracksMeta.csv"
+    tracks_meta = read_table(tracks_meta_path, TRACKS_META_COLUMNS)
+    if tracks_meta["trackId"].duplicated().any():
+        raise IndError(f"{tracks_meta_path}: trackId(s) listed twice, e.g. "
+                       f"{int(tracks_meta.loc[tracks_meta['trackId'].duplicated(), 'trackId'].iloc[0])}")
+    tracks_path = data_dir / f"{prefix}tracks.csv"
+    tracks = read_table(tracks_path, TRACK_COLUMNS)
+    if not tracks["recordingId"].eq(recording).all():
+        raise IndError(f"{tracks_path}: rows of another recording than {recording:02d}")
+    listed = tracks["trackId"].isin(tracks_meta["trackId"])
+    if not listed.all():
+        unknown = sorted(tracks.loc[~listed, "trackId"].unique().tolist())
+        raise IndError(f"{tracks_path}: trackId(s) {unknown[:5]} have no row in {tracks_meta_path.name}")
+    track_class = tracks["trackId"].map(tracks_meta.set_index("trackId")["class"])
+
+    pedestrians = tracks.loc[track_class.eq(PEDESTRIAN)]
+    x, y = world_to_pixels(pedestrians["xCenter"].to_numpy(np.float64),
+                           pedestrians["yCenter"].to_numpy(np.float64), ortho)
+    location = int(row["locationId"])
+    positions = pd.DataFrame({
+        "scene_id": scene_id(location, recording),
+        "track_id": pedestrians["trackId"].to_numpy(np.int64),
+        "frame": pedestrians["frame"].to_numpy(np.int64),
+        "x": x, "y": y,
+    })
+    counts = tracks_meta["class"].value_counts()
+    return Recording(recording, location, frame_rate, ortho, stride, background, image.shape[:2],
+                     positions, {str(k): int(v) for k, v in counts.items()})
+
+
+def assign_splits(recordings: list[Recording], val_recordings: list[int]) -> dict[str, str]:
+    """scene_id -> train / val / test; val recordings must exist and lie outside the test location."""
+    by_number = {r.recording: r for r in recordings}
+    absent = sorted(set(val_recordings) - set(by_number))
+    if absent:
+        raise IndError(f"data.ind.val_recordings: recording(s) {absent} not in the inD copy "
+                       f"(recordings there: {sorted(by_number)})")
+    at_test = sorted(r for r in val_recordings if by_number[r].location == TEST_LOCATION)
+    if at_test:
+        raise IndError(f"data.ind.val_recordings: recording(s) {at_test} are at the test location "
+                       f"{TEST_LOCATION}; validation must come from train locations")
+    return {r.scene_id: "test" if r.location == TEST_LOCATION
+            else "val" if r.recording in val_recordings else "train" for r in recordings}
+
+
+def empty_table() -> pd.DataFrame:
+    return conform(pd.DataFrame({name: pd.Series(dtype=dtype) for name, dtype in COLUMNS.items()}))
+
+
+def window_tables(recordings: list[Recording], splits: dict[str, str], n_past: int,
+                  target_fps: int) -> dict[int, pd.DataFrame]:
+    """t_f -> window table for every horizon in HORIZONS."""
+    parts = []
+    offset = 0
+    strides = pd.Series({r.scene_id: r.stride for r in recordings})
+    positions = pd.concat([r.positions for r in recordings], ignore_index=True)
+    for stride, group in positions.groupby(positions["scene_id"].map(strides), sort=True):
+        pieces = cut_pieces(group.assign(label=PEDESTRIAN, lost=0), PEDESTRIAN, int(stride))
+        pieces["piece"] += offset  # unique piece numbers across frame rates
+        offset = int(pieces["piece"].max()) + 1 if len(pieces) else offset
+        parts.append(pieces)
+    pieces = pd.concat(parts, ignore_index=True) if parts else None
+    tables = {}
+    for t_f in HORIZONS:
+        if pieces is None or pieces.empty:
+            tables[t_f] = empty_table()
+            continue
+        windows = cut_windows(pieces, n_past + t_f * target_fps)
+        firsts = (windows.loc[windows["step"] == 0, ["window_key", "scene_id", "track_id", "frame"]]
+                  .sort_values(["scene_id", "track_id", "frame"], kind="stable"))
+        ids = pd.Series(np.arange(len(firsts), dtype=np.int64), index=firsts["window_key"].to_numpy())
+        tables[t_f] = conform(windows.assign(
+            window_id=windows["window_key"].map(ids), split=windows["scene_id"].map(splits),
+            t_f=t_f, source=SOURCE))
+    return tables
+
+
+def find_masks(labels_dir: Path, recordings: list[Recording]) -> dict[str, np.ndarray]:
+    """scene_id -> validated mask (H, W) uint8 for every XX_background_mask.png of `labels_dir`."""
+    if not labels_dir.is_dir():
+        raise IndError(f"data.ind.labels = {labels_dir}: not a folder")
+    by_number = {r.recording: r for r in recordings}
+    masks = {}
+    for path in sorted(labels_dir.glob("*_background_mask.png")):
+        match = MASK_FILE.match(path.name)
+        if match is None:
+            raise IndError(f"{path}: not named XX_background_mask.png")
+        recording = by_number.get(int(match["recording"]))
+        if recording is None:
+            raise IndError(f"{path}: no recording {match['recording']} in the inD copy")
+        masks[recording.scene_id] = validate_mask(cv2.imread(str(path), cv2.IMREAD_UNCHANGED),
+                                                  recording.image_hw, path)
+    if not masks:
+        raise IndError(f"data.ind.labels = {labels_dir}: no XX_background_mask.png")
+    if all(r.location == TEST_LOCATION for r in recordings if r.scene_id in masks):
+        raise IndError(f"data.ind.labels = {labels_dir}: no mask of a train location "
+                       "(fine-tuning the segmentation net needs at least one)")
+    return masks
+
+
+def fingerprint(paths: list[Path]) -> dict:
+    """SHA-256 of the names, sizes and modification times of the files read (cheap: no content)."""
+    digest = hashlib.sha256()
+    total = 0
+    for path in sorted(paths):
+        stat = path.stat()
+        total += stat.st_size
+        digest.update(f"{path.parent.name}/{path.name}\0{stat.st_size}\0{stat.st_mtime_ns}\n".encode())
+    return {"sha256": digest.hexdigest(), "files": len(paths), "bytes": total,
+            "of": "file names, sizes and modification times (not contents)"}
+
+
+@dataclass(frozen=True)
+class IndWindows:
+    """Everything the stage writes, computed before anything is written."""
+
+    tables: dict[int, pd.DataFrame]
+    index: dict
+    metrics: dict
+    backgrounds: dict[str, Path]  # scene_id -> source image
+    masks: dict[str, np.ndarray]
+
+
+def split_counts(table: pd.DataFrame) -> dict[str, int]:
+    counts = count_windows(table, ["split"])
+    return {split: counts.get(split, 0) for split in ("train", "val", "test")}
+
+
+def not_provided(n_past: int) -> IndWindows:
+    """The record written when data.ind.path is empty: empty tables, and why."""
+    tables = {t_f: empty_table() for t_f in HORIZONS}
+    index = {"provided": False, "reason": NOT_PROVIDED_REASON, "n_past": n_past,
+             "horizon": LONG_TERM_HORIZON, "tables": {str(t): f"tf{t}.parquet" for t in HORIZONS},
+             "scenes": {}}
+    metrics = {"provided": False, "status": "not provided", "reason": NOT_PROVIDED_REASON,
+               "windows": {f"tf{t}": split_counts(tables[t]) for t in HORIZONS}}
+    return IndWindows(tables, index, metrics, {}, {})
+
+
+def build(params: IndParams, windows: WindowParams) -> IndWindows:
+    """Read the copy at params.path and cut its windows (nothing written)."""
+    if not params.provided:
+        return not_provided(windows.n_past)
+    data_dir = Path(params.path).expanduser() / "data"
+    recordings = [read_recording(data_dir, r, windows.target_fps) for r in list_recordings(data_dir)]
+    splits = assign_splits(recordings, params.val_recordings)
+    tables = window_tables(recordings, splits, windows.n_past, windows.target_fps)
+    masks = find_masks(Path(params.labels).expanduser(), recordings) if params.labels else {}
+    read = [data_dir / f"{r.recording:02d}_{name}" for r in recordings
+            for name in ("tracks.csv", "tracksMeta.csv", "recordingMeta.csv", "background.png")]
+    if params.labels:
+        read += sorted(Path(params.labels).expanduser().glob("*_background_mask.png"))
+
+    scenes = {}
+    for r in recordings:
+        scenes[r.scene_id] = {
+            "recording": r.recording, "location": r.location, "split": splits[r.scene_id],
+            "height": int(r.image_hw[0]), "width": int(r.image_hw[1]), "frame_rate": r.frame_rate,
+            "ortho_px_to_meter": r.ortho_px_to_meter, "image": f"backgrounds/{r.scene_id}.png",
+            "labels": f"labels/{r.scene_id}.png" if r.scene_id in masks else None,
+        }
+    index = {"provided": True, "n_past": windows.n_past, "target_fps": windows.target_fps,
+             "horizon": LONG_TERM_HORIZON, "tables": {str(t): f"tf{t}.parquet" for t in HORIZONS},
+             "background_scale": BACKGROUND_SCALE, "scenes": scenes}
+
+    positions = pd.concat([r.positions for r in recordings], ignore_index=True)
+    sizes = pd.DataFrame([(r.scene_id, *r.image_hw) for r in recordings],
+                         columns=["scene_id", "height", "width"]).set_index("scene_id")
+    height = positions["scene_id"].map(sizes["height"]).to_numpy()
+    width = positions["scene_id"].map(sizes["width"]).to_numpy()
+    outside = ((positions["x"] < 0) | (positions["x"] >= width)
+               | (positions["y"] < 0) | (positions["y"] >= height))
+    classes: dict[str, int] = {}
+    for r in recordings:
+        for name, n in r.class_counts.items():
+            classes[name] = classes.get(name, 0) + n
+    metrics = {
+        "provided": True, "status": "ok",
+        "horizon": LONG_TERM_HORIZON,
+        "windows": {f"tf{t}": split_counts(tables[t]) for t in HORIZONS},
+        "windows_per_scene": {f"tf{t}": count_windows(tables[t], ["split", "scene_id"]) for t in HORIZONS},
+        "recordings": {split: sorted(r.recording for r in recordings if splits[r.scene_id] == split)
+                       for split in ("train", "val", "test")},
+        "tracks_per_class": dict(sorted(classes.items())),
+        "pedestrian_positions": int(len(positions)),
+        "pedestrian_positions_outside_image": int(outside.sum()),
+        "frame_rates": sorted({r.frame_rate for r in recordings}),
+        "labels": sorted(masks),
+        "source_fingerprint": fingerprint(read),
+    }
+    return IndWindows(tables, index, metrics, {r.scene_id: r.background for r in recordings}, masks)
+
+
+def write(result: IndWindows, out: Path, metrics: Path) -> None:
+    """The output folder (staged, then renamed over `out`) and the metrics JSON."""
+    with atomic_dir(out) as staging:
+        for t_f, table in result.tables.items():
+            table.to_parquet(staging / f"tf{t_f}.parquet", index=False)
+        (staging / "backgrounds").mkdir()
+        for name, source in result.backgrounds.items():
+            shutil.copyfile(source, staging / "backgrounds" / f"{name}.png")
+        if result.masks:
+            (staging / "labels").mkdir()
+            for name, mask in result.masks.items():
+                cv2.imwrite(str(staging / "labels" / f"{name}.png"), mask)
+        (staging / "index.json").write_text(json.dumps(result.index, indent=1, sort_keys=True) + "\n")
+    write_json(result.metrics, metrics, sort_keys=True)

@@ -1,0 +1,102 @@
+"""Training and scoring one baseline at one horizon: what the baseline stages share.
+
+`train` fits S-GAN or PECNet on a window table's `train` split (the epoch with the lowest
+min-over-K ADE on `val`, never `test`; stage `train_baseline`), `evaluate` scores any baseline with
+the shared metric over seeded rounds (stages `evaluate_baseline`, `evaluate_rpecnet`,
+`evaluate_constant_velocity`, `evaluate_pecnet_ka`, `evaluate_ind`), `training_facts` reads what a
+checkpoint folder records about its training. Checkpoints: `pipeline.harness.baselines.common`.
+Each model's settings are its config dataclass (sections `sgan` / `pecnet`, one per profile),
+chosen by `model_config`.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from pipeline.config import EvaluateBaselineParams, load_profile
+from pipeline.data.window_table import WindowArrays
+from pipeline.device import CPU
+from pipeline.device import generator as seeded_generator
+from pipeline.harness import baselines
+from pipeline.harness.baselines.common import (fit_result_from, load_checkpoint, load_windows,
+                                               select_split)
+from pipeline.harness.metrics import METRIC_KEYS, summarize, window_errors
+from pipeline.preemption import NEVER, Preemption
+
+
+def model_config(model: str, params: dict):
+    """The settings of `model` (sections `sgan` / `pecnet`) for the active `profile`."""
+    if model not in baselines.TRAINABLE:
+        raise ValueError(f"{model!r} is not trained; trainable: {baselines.TRAINABLE}")
+    return load_profile(baselines.get(model).config_class, model, params)
+
+
+def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: int,
+          device: torch.device = CPU, preemption: Preemption = NEVER) -> dict:
+    """Fit `model` on the train split (selecting on val) on `device`; returns the training facts
+    (the per-epoch history stays in the checkpoint's last.pt). Raises `StopRequested` (after a
+    mid-epoch checkpoint) when `preemption` says so."""
+    train_set, val_set = select_split(arrays, "train"), select_split(arrays, "val")
+    fitted = baselines.get(model).fit(train_set, val_set, config, checkpoint_dir, seed,
+                                      device=device, preemption=preemption)
+    result = fitted.fit_result
+    return {
+        "n_train": len(train_set), "n_val": len(val_set), "epochs": result.epochs,
+        "best_epoch": result.best_epoch, "best_val_ade": result.best_val_ade,
+        "train_seconds": result.train_seconds,
+        "seconds_per_epoch": result.train_seconds / max(result.epochs, 1),
+    }
+
+
+def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device: torch.device = CPU) -> dict:
+    """Mean and std over rounds of the shared metric's summary, plus each round's summary; round r
+    samples from a generator on `device` (the model's) seeded with seed + r."""
+    per_round = []
+    t0 = time.perf_counter()
+    for r in range(rounds):
+        pred = model.predict(arrays, k, seeded_generator(device, seed + r))  # (N, K, n_f, 2)
+        per_round.append(summarize(window_errors(pred, arrays.future)))
+    seconds = time.perf_counter() - t0
+    out = {key: float(np.mean([r[key] for r in per_round])) for key in METRIC_KEYS}
+    out |= {f"{key}_std": float(np.std([r[key] for r in per_round])) for key in METRIC_KEYS}
+    return {**out, "k": k, "n_windows": len(arrays), "rounds": rounds,
+            "eval_seconds": seconds, "eval_seconds_per_round": seconds / rounds, "per_round": per_round}
+
+
+def training_facts(model: str, checkpoint_dir: Path | None) -> dict:
+    """What the checkpoint records about its training (nothing for constant velocity)."""
+    if checkpoint_dir is None:
+        return {"train_seconds": 0.0}
+    result = fit_result_from(checkpoint_dir)
+    meta = load_checkpoint(Path(checkpoint_dir) / "best.pt")["meta"]
+    return {"train_seconds": result.train_seconds, "trained_epochs": result.epochs,
+            "best_epoch": result.best_epoch, "best_val_ade": result.best_val_ade,
+            "trained_horizon": meta["n_future"]}
+
+
+def ka_rows(model, arrays, k_as: list[int], k_per_ka: int, rounds: int, seed: int,
+            device: torch.device = CPU) -> list[dict]:
+    """One metrics row per K_a: best of K = k_per_ka x K_a samples (mean and std over rounds)."""
+    rows = []
+    for k_a in k_as:
+        scores = evaluate(model, arrays, k_per_ka * k_a, rounds, seed, device)
+        scores.pop("per_round")
+        rows.append({"k_a": k_a, **scores})
+    return rows
+
+
+def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, n_past: int,
+                params: EvaluateBaselineParams, device: torch.device = CPU) -> dict:
+    """The metrics record of one baseline on split `params.split` of a window table (the layout of
+    `metrics/baselines/<model>_tf<H>.json`)."""
+    fitted = baselines.get(model).load(checkpoint_dir, device)
+    arrays = select_split(load_windows(table, n_past, horizon), params.split)
+    if len(arrays) == 0:
+        raise ValueError(f"{table}: no {params.split} windows")
+    scores = evaluate(fitted, arrays, params.k, params.rounds, params.seed, device)
+    return {"model": model, "horizon": horizon, "split": params.split, "seed": params.seed,
+            **scores, **training_facts(model, checkpoint_dir)}

@@ -1,0 +1,325 @@
+"""PECNet (Mangalam et al. 2020), retrained per horizon for the long-term setting.
+
+An endpoint-conditioned CVAE: a past encoder summarises the observed track; while training, an
+endpoint encoder and a latent encoder give q(z | past, endpoint) and the endpoint decoder
+reconstructs the endpoint from (past, z); at test time z ~ N(0, sigma^2) with sigma = 1.3 (the
+"truncation trick"), one z per sample. The path to the (generated) endpoint is then predicted from
+[past features, endpoint features, position], after `nonlocal_rounds` rounds of non-local social
+pooling (attention restricted to co-occurring agents that came within `neighbour_radius` pixels of
+each other during the observed steps). Loss: MSE(endpoint) + KL + MSE(path), weights 1 (the KL
+summed over the batch, as upstream does). Settings: `shared/reference/upstream.md`.
+
+Units (upstream's normalisation): each window is shifted so its first observed point is the
+origin, then multiplied by `data_scale`; the absolute last observed position, divided by
+`position_scale`, is an extra input of the path predictor. Reversed windows (the whole track
+played backwards) are added to the training set when `reverse_augment` is on.
+
+Loss balance: the MSEs are means and the KL a sum over the batch, so per window the objective is a
+Gaussian likelihood of standard deviation sigma_px = sqrt(batch_size * kl_weight) / data_scale
+pixels plus the KL. Upstream (data_scale 1.86, batch 512, kl_weight 1) has sigma_px = 12.2 px. Its
+literal units make 30-s endpoints about 1,000 units large, and training from them was unstable
+in our runs (KL ~1e10 after 40 epochs). The `cpu` profile keeps sigma_px (12.6 px: data_scale
+0.02, batch 64, kl_weight 0.001) with 50-px units, smaller batches (more steps in few epochs) and
+a larger learning rate (1e-3).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from pipeline.harness.baselines import common
+from pipeline.harness.baselines.common import FitResult, as_input, mlp
+from pipeline.device import generator as seeded_generator
+from pipeline.device import CPU, to_device
+from pipeline.harness.metrics import window_errors
+from pipeline.preemption import NEVER, Preemption
+from pipeline.data.window_table import WindowArrays
+
+
+@dataclass
+class PecnetConfig:
+    epochs: int = 650
+    """Training epochs; the best on val is kept."""
+    batch_size: int = 512
+    """Windows per batch (whole co-occurrence groups, so about this many)."""
+    learning_rate: float = 3e-4
+    """Adam learning rate."""
+    past_hidden: list[int] = field(default_factory=lambda: [512, 256])
+    """Hidden widths of the past encoder (2 n_p -> ... -> feature_dim)."""
+    endpoint_hidden: list[int] = field(default_factory=lambda: [8, 16])
+    """Hidden widths of the endpoint encoder (2 -> ... -> feature_dim)."""
+    latent_hidden: list[int] = field(default_factory=lambda: [8, 50])
+    """Hidden widths of the latent encoder (2 feature_dim -> ... -> 2 latent_dim)."""
+    decoder_hidden: list[int] = field(default_factory=lambda: [1024, 512, 1024])
+    """Hidden widths of the endpoint decoder (feature_dim + latent_dim -> ... -> 2)."""
+    predictor_hidden: list[int] = field(default_factory=lambda: [1024, 512, 256])
+    """Hidden widths of the path predictor (-> 2 (n_f - 1))."""
+    nonlocal_hidden: list[int] = field(default_factory=lambda: [256, 128, 64])
+    """Hidden widths of the non-local theta, phi and g MLPs."""
+    nonlocal_dim: int = 128
+    """Width of the non-local embedding whose dot products weigh the neighbours."""
+    nonlocal_rounds: int = 3
+    """Rounds of non-local social pooling before the path predictor."""
+    feature_dim: int = 16
+    """Width of the past and endpoint features."""
+    latent_dim: int = 16
+    """Width of the latent z."""
+    sigma: float = 1.3
+    """Standard deviation of z at test time (truncation trick)."""
+    neighbour_radius: float = 100.0
+    """Pixels: co-occurring agents closer than this at some observed step pool together."""
+    data_scale: float = 1.86
+    """Factor applied to origin-shifted pixel coordinates."""
+    position_scale: float = 1000.0
+    """Pixels per unit of the absolute-position input."""
+    kl_weight: float = 1.0
+    """Weight of the KL term (summed over batch and latent dimensions); see "Loss balance"."""
+    path_weight: float = 1.0
+    """Weight of the path MSE."""
+    reverse_augment: bool = True
+    """Add every training window played backwards."""
+    val_k: int = 20
+    """Samples per window when scoring the validation split (min-over-K ADE selects the epoch)."""
+
+    def __post_init__(self):
+        for name in ("epochs", "batch_size", "nonlocal_dim", "feature_dim", "latent_dim", "val_k"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.nonlocal_rounds < 0:
+            raise ValueError("nonlocal_rounds must be >= 0")
+        for name in ("learning_rate", "sigma", "neighbour_radius", "data_scale", "position_scale"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be > 0")
+        if self.kl_weight < 0 or self.path_weight < 0:
+            raise ValueError("kl_weight and path_weight must be >= 0")
+        for name in ("past_hidden", "endpoint_hidden", "latent_hidden", "decoder_hidden",
+                     "predictor_hidden", "nonlocal_hidden"):
+            widths = getattr(self, name)
+            if not isinstance(widths, list) or any(int(w) != w or w < 1 for w in widths):
+                raise ValueError(f"{name} must be a list of positive widths, got {widths}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Modules
+
+
+class NonLocalPooling(nn.Module):
+    """feat + softmax-attention over neighbours (mask) of g(feat); weights from theta . phi."""
+
+    def __init__(self, width: int, config: PecnetConfig):
+        super().__init__()
+        self.theta = mlp([width, *config.nonlocal_hidden, config.nonlocal_dim])
+        self.phi = mlp([width, *config.nonlocal_hidden, config.nonlocal_dim])
+        self.g = mlp([width, *config.nonlocal_hidden, width])
+
+    def forward(self, feat: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        """feat (B, F), mask (B, B) bool with a True diagonal -> (B, F)."""
+        scores = self.theta(feat) @ self.phi(feat).T  # (B, B)
+        weights = torch.softmax(scores.masked_fill(~mask, float("-inf")), dim=-1)  # (B, B)
+        return feat + weights @ self.g(feat)
+
+
+class PecnetNet(nn.Module):
+    def __init__(self, config: PecnetConfig, n_past: int, n_future: int):
+        super().__init__()
+        f, z = config.feature_dim, config.latent_dim
+        self.n_future = n_future
+        self.encode_past = mlp([2 * n_past, *config.past_hidden, f])
+        self.encode_endpoint = mlp([2, *config.endpoint_hidden, f])
+        self.encode_latent = mlp([2 * f, *config.latent_hidden, 2 * z])
+        self.decode_endpoint = mlp([f + z, *config.decoder_hidden, 2])
+        width = 2 * f + 2  # [past features, endpoint features, position]
+        self.pooling = nn.ModuleList(NonLocalPooling(width, config) for _ in range(config.nonlocal_rounds))
+        self.predict_path = mlp([width, *config.predictor_hidden, 2 * (n_future - 1)])
+
+    def posterior(self, past_feat: torch.Tensor, endpoint: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Mean and log-variance of q(z | past, endpoint), each (B, latent_dim)."""
+        stats = self.encode_latent(torch.cat([past_feat, self.encode_endpoint(endpoint)], dim=-1))
+        return stats.chunk(2, dim=-1)
+
+    def path(self, past_feat: torch.Tensor, endpoint: torch.Tensor, position: torch.Tensor,
+             mask: torch.Tensor) -> torch.Tensor:
+        """Path to `endpoint` (B, 2): the n_f - 1 intermediate points (B, n_f - 1, 2)."""
+        feat = torch.cat([past_feat, self.encode_endpoint(endpoint), position], dim=-1)  # (B, 2f+2)
+        for pool in self.pooling:
+            feat = pool(feat, mask)
+        return self.predict_path(feat).reshape(len(feat), self.n_future - 1, 2)
+
+    def forward(self, past: torch.Tensor, position: torch.Tensor, mask: torch.Tensor,
+                endpoint: torch.Tensor | None = None, z: torch.Tensor | None = None):
+        """past (B, 2 n_p) normalised; position (B, 2); mask (B, B).
+
+        Training: pass the true `endpoint` (B, 2); z is drawn from the posterior (reparametrised,
+        with torch's global RNG unless `z` holds the standard-normal noise). Sampling: pass `z`
+        (B, latent_dim) and no endpoint. Returns (endpoint (B, 2), path (B, n_f-1, 2), mu, logvar),
+        the path conditioned on the generated endpoint; mu and logvar are None when sampling.
+        """
+        past_feat = self.encode_past(past)  # (B, f)
+        mu = logvar = None
+        if endpoint is not None:
+            mu, logvar = self.posterior(past_feat, endpoint)
+            eps = torch.randn_like(mu) if z is None else z
+            z = mu + eps * torch.exp(0.5 * logvar)
+        elif z is None:
+            raise ValueError("pass the true endpoint (training) or z (sampling)")
+        generated = self.decode_endpoint(torch.cat([past_feat, z], dim=-1))  # (B, 2)
+        return generated, self.path(past_feat, generated, position, mask), mu, logvar
+
+
+# ---------------------------------------------------------------------------------------------
+# Batches
+
+
+@dataclass
+class Batch:
+    past: torch.Tensor  # (B, 2 n_p) origin-shifted, scaled, flattened
+    position: torch.Tensor  # (B, 2) last observed position / position_scale
+    mask: torch.Tensor  # (B, B) neighbours
+    origin: np.ndarray  # (B, 2) first observed position in pixels
+    endpoint: torch.Tensor | None = None  # (B, 2) normalised
+    path: torch.Tensor | None = None  # (B, n_f - 1, 2) normalised
+
+
+def make_batch(past: np.ndarray, groups: np.ndarray, config: PecnetConfig,
+               future: np.ndarray | None = None, device: torch.device = CPU) -> Batch:
+    """past (B, n_p, 2), future (B, n_f, 2) in pixels; tensors on `device`."""
+    origin = past[:, 0]  # (B, 2)
+    mask = common.neighbour_mask(as_input(groups, device), as_input(past, device), config.neighbour_radius)
+
+    def norm(xy: np.ndarray) -> torch.Tensor:
+        return as_input((xy - origin[:, None]) * config.data_scale, device, torch.float32)
+
+    batch = Batch(past=norm(past).flatten(1), mask=mask, origin=origin,
+                  position=as_input(past[:, -1] / config.position_scale, device, torch.float32))
+    if future is not None:
+        fut = norm(future)  # (B, n_f, 2)
+        batch.endpoint, batch.path = fut[:, -1], fut[:, :-1]
+    return batch
+
+
+def reversed_windows(arrays: WindowArrays, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(past, future, groups) of the windows plus the same tracks played backwards (new groups)."""
+    n_p = arrays.past.shape[1]
+    track = np.concatenate([arrays.past, arrays.future], axis=1)[:, ::-1]  # (N, T, 2)
+    past = np.concatenate([arrays.past, track[:, :n_p]])
+    future = np.concatenate([arrays.future, track[:, n_p:]])
+    return past, future, np.concatenate([groups, groups + groups.max() + 1])
+
+
+def kl_divergence(mu: torch.Tensor, logvar: torch.Tensor) -> torch.Tensor:
+    """KL(N(mu, exp(logvar)) || N(0, 1)), summed over batch and dimensions."""
+    return -0.5 * torch.sum(1 + logvar - mu**2 - logvar.exp())
+
+
+# ---------------------------------------------------------------------------------------------
+# The baseline
+
+
+class Pecnet:
+    """PECNet behind the common baseline interface (fit / load / predict)."""
+
+    name = "pecnet"
+    config_class = PecnetConfig
+    trainable = True
+
+    def __init__(self, config: PecnetConfig, n_past: int, n_future: int, device: torch.device = CPU):
+        if n_future < 2:
+            raise ValueError("PECNet predicts an endpoint and a path: n_future must be >= 2")
+        self.config, self.n_past, self.n_future = config, n_past, n_future
+        self.device = torch.device(device)
+        # Initialised on the CPU (torch's global RNG), then moved: the same weights on any device.
+        self.net = PecnetNet(config, n_past, n_future).to(self.device)
+        self.fit_result: FitResult | None = None  # set by fit
+
+    @classmethod
+    def fit(cls, train: WindowArrays, val: WindowArrays, config: PecnetConfig, checkpoint_dir: Path,
+            seed: int, device: torch.device = CPU, preemption: Preemption = NEVER) -> Pecnet:
+        if len(train) == 0 or len(val) == 0:
+            raise ValueError("PECNet needs training and validation windows")
+        rng = common.seed_everything(seed, device)
+        model = cls(config, train.past.shape[1], train.future.shape[1], device)
+        common.check_windows(val, model.n_past, model.n_future, "validation windows")
+        optimizer = torch.optim.Adam(model.net.parameters(), lr=config.learning_rate)
+        groups = common.co_occurrence_groups(train)
+        if config.reverse_augment:
+            past, future, groups = reversed_windows(train, groups)
+        else:
+            past, future = train.past, train.future
+
+        def epoch_batches(epoch: int) -> list[np.ndarray]:
+            return common.group_batches(groups, config.batch_size, rng)
+
+        def train_batch(index: np.ndarray) -> np.ndarray:
+            batch = make_batch(past[index], groups[index], config, future[index], device)
+            return model.train_step(batch, optimizer, rng)
+
+        def validate() -> float:
+            pred = model.predict(val, config.val_k, seeded_generator(device, seed + 1))
+            return float(window_errors(pred, val.future).ade.mean())
+
+        model.fit_result = common.run_training(
+            name=cls.name, modules={"net": model.net}, optimizers={"net": optimizer},
+            epoch_batches=epoch_batches, train_batch=train_batch,
+            loss_names=("loss_endpoint", "loss_kl", "loss_path"), validate=validate,
+            epochs=config.epochs, config=dataclasses.asdict(config),
+            meta={"n_past": model.n_past, "n_future": model.n_future, "seed": seed},
+            data_fingerprint=common.fingerprint(seed, train, val),
+            checkpoint_dir=checkpoint_dir, generator=rng, device=device, preemption=preemption)
+        return model
+
+    def train_step(self, batch: Batch, optimizer: torch.optim.Optimizer, rng: torch.Generator) -> np.ndarray:
+        """One Adam step; returns [endpoint MSE, KL, path MSE]."""
+        eps = to_device(torch.randn(len(batch.past), self.config.latent_dim, generator=rng, device=rng.device),
+                        batch.past.device)
+        endpoint, path, mu, logvar = self.net(batch.past, batch.position, batch.mask, batch.endpoint, eps)
+        loss_endpoint = F.mse_loss(endpoint, batch.endpoint)
+        loss_kl = kl_divergence(mu, logvar)
+        loss_path = F.mse_loss(path, batch.path)
+        loss = loss_endpoint + self.config.kl_weight * loss_kl + self.config.path_weight * loss_path
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        return np.array([loss_endpoint.item(), loss_kl.item(), loss_path.item()])
+
+    @classmethod
+    def load(cls, checkpoint_dir: Path, device: torch.device = CPU) -> Pecnet:
+        state = common.load_checkpoint(Path(checkpoint_dir) / common.BEST, map_location=device)
+        model = cls(PecnetConfig(**state["config"]), state["meta"]["n_past"], state["meta"]["n_future"],
+                    device)
+        model.net.load_state_dict(state["modules"]["net"])
+        model.net.eval()
+        return model
+
+    @torch.no_grad()
+    def sample(self, past: np.ndarray, groups: np.ndarray, k: int, generator: torch.Generator,
+               batch_size: int = 1024) -> np.ndarray:
+        """K sampled futures (N, k, n_f, 2) in pixels of observed tracks past (N, n_p, 2);
+        windows with equal `groups` co-occur (pool with each other). z is drawn on `generator`'s
+        device."""
+        if past.ndim != 3 or past.shape[1:] != (self.n_past, 2):
+            raise ValueError(f"PECNet takes (N, {self.n_past}, 2) observed tracks, got {past.shape}")
+        self.net.eval()
+        out = np.zeros((len(past), k, self.n_future, 2))
+        for index in common.group_batches(groups, batch_size):
+            batch = make_batch(past[index], groups[index], self.config, device=self.device)
+            samples = []
+            for _ in range(k):
+                z = self.config.sigma * to_device(
+                    torch.randn(len(index), self.config.latent_dim, generator=generator, device=generator.device),
+                    self.device)
+                endpoint, path, _, _ = self.net(batch.past, batch.position, batch.mask, z=z)
+                samples.append(torch.cat([path, endpoint[:, None]], dim=1))  # (B, n_f, 2)
+            future = torch.stack(samples, dim=1).double().cpu().numpy()  # (B, k, n_f, 2): one copy back
+            out[index] = future / self.config.data_scale + batch.origin[:, None, None]
+        return out
+
+    def predict(self, arrays: WindowArrays, k: int, generator: torch.Generator) -> np.ndarray:
+        """(N, k, n_f, 2) sampled futures in pixels."""
+        return self.sample(arrays.past, common.co_occurrence_groups(arrays), k, generator)

@@ -1,0 +1,70 @@
+"""R-PECNet: a PECNet trained for a short horizon (t_f = 5 s) rolled out on its own predictions.
+
+Round 1 feeds the observed n_p positions; every further round feeds the last n_p positions of the
+track so far (observed + predicted), and appends the model's n_f' predicted positions, until the
+horizon is covered; the surplus of the last round is cut off, so any horizon works (also one that
+is not a multiple of n_f').
+
+Samples: the K samples are K independent chains. Chain k draws a fresh z for every round and
+always continues from its own previous round, so each of the K returned tracks is one coherent
+sample path (never a mix of different samples' pieces), and the cost is K x rounds model calls.
+(The alternative, branching K ways at every round, grows as K^rounds and would need a rule to
+prune back to K.) Social pooling inside a round mixes chain k of co-occurring agents only with
+chain k of their neighbours: their positions in the same imagined future.
+
+Nothing is trained here: `load` takes the checkpoint directory of the t_f = 5 PECNet. The rollout
+itself is numpy between rounds (the tracks are short); each round runs on the PECNet's device.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from pipeline.harness.baselines import common
+from pipeline.harness.baselines.pecnet import Pecnet
+from pipeline.device import CPU
+from pipeline.data.window_table import WindowArrays
+
+
+def rollout(model: Pecnet, past: np.ndarray, groups: np.ndarray, k: int, n_future: int,
+            generator: torch.Generator) -> np.ndarray:
+    """K chains of `model` rolled out to n_future steps: past (N, n_p, 2) -> (N, k, n_future, 2)."""
+    n, n_p = len(past), model.n_past
+    if past.shape[1] < n_p:
+        raise ValueError(f"the model needs {n_p} observed steps, got {past.shape[1]}")
+    # Chains as rows: row i * k + s is chain s of window i; it pools with chain s of its group.
+    track = np.repeat(past, k, axis=0)  # (N k, n_p, 2)
+    chain_groups = np.repeat(groups, k) * k + np.tile(np.arange(k), n)  # (N k,)
+    for _ in range(math.ceil(n_future / model.n_future)):
+        step = model.sample(track[:, -n_p:], chain_groups, 1, generator)[:, 0]  # (N k, n_f', 2)
+        track = np.concatenate([track, step], axis=1)
+    future = track[:, past.shape[1]: past.shape[1] + n_future]  # (N k, n_future, 2)
+    return future.reshape(n, k, n_future, 2)
+
+
+class RecurrentPecnet:
+    """R-PECNet behind the common baseline interface (load / predict; nothing to fit)."""
+
+    name = "rpecnet"
+    config_class = None
+    trainable = False
+    base_horizon = 5  # seconds (= steps at 1 FPS) the underlying PECNet is trained for
+
+    def __init__(self, model: Pecnet):
+        self.model = model
+
+    @classmethod
+    def load(cls, checkpoint_dir: Path, device: torch.device = CPU) -> RecurrentPecnet:
+        """The PECNet of `checkpoint_dir` (trained for t_f = 5 s in the benchmark), on `device`."""
+        return cls(Pecnet.load(checkpoint_dir, device))
+
+    def predict(self, arrays: WindowArrays, k: int, generator: torch.Generator,
+                n_future: int | None = None) -> np.ndarray:
+        """(N, k, n_f, 2) in pixels; n_f is the windows' future length unless `n_future` is given."""
+        n_future = arrays.future.shape[1] if n_future is None else n_future
+        common.check_windows(arrays, self.model.n_past, None, "R-PECNet input")
+        return rollout(self.model, arrays.past, common.co_occurrence_groups(arrays), k, n_future, generator)

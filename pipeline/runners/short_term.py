@@ -1,0 +1,318 @@
+"""One model on one short-term benchmark (paper Tables 1 and 2): what the stages
+`train_short_term_ynet`, `evaluate_short_term_ynet`, `train_short_term_baseline` and
+`evaluate_short_term_baseline` share.
+
+Benchmarks (`--dataset`): `sdd`, the TrajNet split (errors in original pixels), or one ETH/UCY
+leave-one-scene-out fold, `eth`, `hotel`, `univ`, `zara1`, `zara2` (errors in metres). Windows of
+n_p = 8 observed + n_f = 12 future steps at 2.5 FPS, as `short_term_windows` cut them.
+
+- Y-net, the authors' short-term configuration (`shared/reference/upstream.md`): the goal is the
+  only waypoint (step n_f - 1), TTST with temperature 1.0 and rel_threshold 0.01, no CWS, K_a = 1.
+  Architecture, optimiser and augmentation are `ynet.<profile>`'s; map scale, Gaussian kernel and
+  sigma per benchmark are `short_term_models.<profile>`'s (`ynet_sdd`, `ynet_ethucy`). ETH/UCY maps
+  have 3 channels (padding, not road, road), SDD's 6.
+- S-GAN and PECNet: their `sgan` / `pecnet` sections with `short_term_models`' epochs, on the same
+  windows.
+
+Y-net may see a square window around each agent instead of its whole scene, in training and
+scoring alike (`crop` of `ynet_sdd` / `ynet_ethucy`, centred `crop_lead_steps` steps of its last
+velocity ahead): the cpu profile's speed-up, since a 4.8-s future stays near the agent.
+
+Training (`train_ynet`, `train_baseline`) selects the epoch on validation ADE in pixels over at most
+`val_windows` validation windows (a seeded sample), never the test set, and resumes from the
+checkpoint folder. Y-net trains with `pipeline.runners.ynet_training.train` (the long-term loop);
+`YnetSettings.semantic_classes` and `steps_per_epoch` carry the differences.
+
+Scoring (`score_ynet`, `score_baseline`) loads the best epoch from the checkpoint folder (its
+settings with it) and scores it at each K of `k_sdd` / `k_ethucy` (best of K; K_e for Y-net) on
+every test window, in `rounds` seeded rounds (round r: seed + r), with `pipeline.harness.metrics`
+(independent minima, the paper's protocol, and joint ones). ETH/UCY: every predicted position
+(original pixels) is mapped to metres through its scene's homography and swap flag
+(`pipeline.data.homography.pixels_to_metres`) and compared with the table's metre columns `x_m`,
+`y_m`; upstream mixes pixels and metres there (upstream bug 4).
+
+A Y-net run on a dataset outside `ynet_datasets` gets the not-run record instead (a profile's
+choice, as `ynet_horizons`), which the report shows in the cell.
+
+Files: the training record `{dataset, model, profile, trained: true, train: <facts>}` (or the
+not-run record) and the run record `run_record` builds from it and the scores (the layout
+`short_term_tables` and the report read).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+from pipeline.config import CwsParams, ShortTermModelsParams, TtstParams
+from pipeline.data.homography import pixels_to_metres
+from pipeline.data.semantic_maps import load_semantic_maps
+from pipeline.data.short_term import EthUcySceneInfo, load_ethucy_scenes
+from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline.data.ynet_data import group_by_scene
+from pipeline.device import CPU, generator
+from pipeline.harness import baselines
+from pipeline.harness.baselines.common import select_split, subset
+from pipeline.harness.metrics import METRIC_KEYS, summarize, window_errors
+from pipeline.preemption import NEVER, Preemption
+from pipeline.runners.ynet_scoring import load_model, predict_scenes, sampling_options, summarize_rounds
+from pipeline.runners.ynet_training import YnetSettings, image_sizes, train
+
+# File names inside the `short_term_windows` output folder (pipeline.data.short_term.build).
+SDD_TABLE = "sdd_trajnet.parquet"
+ETHUCY_SCENES = "ethucy_semantic"  # maps.npz + index.json (pixel grid, homography, swap per scene)
+METRES_TOLERANCE = 1e-6  # m: the homography must give back the table's metres of the ground truth
+
+
+def benchmark_of(dataset: str) -> str:
+    return "sdd" if dataset == "sdd" else "ethucy"
+
+
+def table_path(windows: Path, dataset: str) -> Path:
+    return Path(windows) / (SDD_TABLE if dataset == "sdd" else f"ethucy_{dataset}.parquet")
+
+
+# ---------------------------------------------------------------------------------------------
+# Settings
+
+
+
+
+
+
+def ynet_settings(base: YnetSettings, params: ShortTermModelsParams, dataset: str, n_future: int,
+                  semantic_classes: int) -> YnetSettings:
+    """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale, epochs and
+    (if set) learning rate."""
+    scale = params.ynet_sdd if dataset == "sdd" else params.ynet_ethucy
+    learning_rate = (base.learning_rate if params.ynet_learning_rate is None
+                     else params.ynet_learning_rate)
+    return YnetSettings(**{
+        **asdict(base), **asdict(scale), "waypoints": [n_future - 1],
+        "epochs": params.epochs["ynet"][benchmark_of(dataset)], "learning_rate": learning_rate,
+        "semantic_classes": semantic_classes, "steps_per_epoch": params.ynet_steps_per_epoch})
+
+
+# ---------------------------------------------------------------------------------------------
+# Windows and units
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    """One dataset's windows (original pixels) and the test ground truth in the unit it is scored in."""
+
+    train: WindowArrays
+    val: WindowArrays
+    test: WindowArrays
+    truth: np.ndarray  # (N_test, n_f, 2) in `unit`
+    unit: str  # px | m
+    to_unit: Callable[[np.ndarray], np.ndarray]  # (N_test, ..., 2) original pixels -> unit
+
+
+def sample_windows(arrays: WindowArrays, n: int, seed: int) -> WindowArrays:
+    """A fixed seeded sample of `n` windows in their original order (all of them if n = 0 or more)."""
+    if n == 0 or n >= len(arrays):
+        return arrays
+    rows = np.sort(np.random.default_rng(seed).choice(len(arrays), n, replace=False))
+    return subset(arrays, rows)
+
+
+def to_metres(points: np.ndarray, scene_ids: np.ndarray,
+              scenes: dict[str, EthUcySceneInfo]) -> np.ndarray:
+    """Original pixels (N, ..., 2) of windows in scenes `scene_ids` (N,) -> metres (N, ..., 2)."""
+    points = np.asarray(points, dtype=np.float64)
+    out = np.empty_like(points)
+    for name in np.unique(scene_ids):
+        rows = scene_ids == name
+        info = scenes[str(name)]
+        out[rows] = pixels_to_metres(points[rows], info.homography, info.swap)
+    return out
+
+
+def load_benchmark(table: pd.DataFrame, dataset: str, n_past: int, n_future: int,
+                   scenes: dict[str, EthUcySceneInfo] | None) -> Benchmark:
+    """Splits of a short-term window table; ETH/UCY (`scenes` given): test truth in metres."""
+    arrays = to_arrays(table, n_past)
+    if arrays.future.shape[1] != n_future:
+        raise ValueError(f"{dataset}: windows of {n_past} + {arrays.future.shape[1]} steps, "
+                         f"expected {n_past} + {n_future}")
+    train, val, test = (select_split(arrays, s) for s in ("train", "val", "test"))
+    if min(len(train), len(val), len(test)) == 0:
+        raise ValueError(f"{dataset}: every split needs windows (train {len(train)}, "
+                         f"val {len(val)}, test {len(test)})")
+    if scenes is None:
+        return Benchmark(train, val, test, test.future, "px", lambda points: points)
+    metres = select_split(to_arrays(table.assign(x=table["x_m"], y=table["y_m"]), n_past), "test")
+    assert np.array_equal(metres.window_id, test.window_id)  # one order: window_id
+    missing = sorted(set(test.scene_id) - set(scenes))
+    if missing:
+        raise ValueError(f"{dataset}: no homography for test scene(s) {missing}")
+
+    def to_unit(points: np.ndarray) -> np.ndarray:
+        return to_metres(points, test.scene_id, scenes)
+
+    worst = float(np.abs(to_unit(test.future) - metres.future).max())
+    if worst > METRES_TOLERANCE:
+        raise ValueError(f"{dataset}: the scenes' homographies map the test pixels {worst:.3g} m "
+                         "away from the table's metres: tables and scene index disagree")
+    return Benchmark(train, val, test, metres.future, "m", to_unit)
+
+
+# ---------------------------------------------------------------------------------------------
+# Scoring
+
+
+def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None]], bench: Benchmark,
+          rounds: int, seed: int) -> dict:
+    """Best-of-K errors in the benchmark's unit over seeded rounds.
+
+    sample(seed) -> (paths (N, K, n_f, 2), goals (N, K, 2) or None) in original pixels.
+    """
+    per_round = []
+    for r in range(rounds):
+        paths, goals = sample(seed + r)
+        errors = window_errors(bench.to_unit(paths), bench.truth,
+                               None if goals is None else bench.to_unit(goals))
+        per_round.append({key: value for key, value in summarize(errors).items()
+                          if key in METRIC_KEYS})
+    return {**summarize_rounds(per_round), "rounds": rounds, "per_round": per_round}
+
+
+# ---------------------------------------------------------------------------------------------
+# Inputs
+
+
+def load_dataset(windows: Path, dataset: str, n_past: int,
+                 n_future: int) -> tuple[Benchmark, dict[str, EthUcySceneInfo] | None]:
+    """The benchmark of `dataset` from the `short_term_windows` folder, and (ETH/UCY) its scenes."""
+    ethucy_scenes = None
+    if dataset != "sdd":
+        ethucy_scenes = load_ethucy_scenes(Path(windows) / ETHUCY_SCENES)
+    table = pd.read_parquet(table_path(windows, dataset))
+    return load_benchmark(table, dataset, n_past, n_future, ethucy_scenes), ethucy_scenes
+
+
+def ynet_inputs(maps_path: Path, sdd: Path | None, scene_ids: set[str],
+                ethucy_scenes: dict[str, EthUcySceneInfo] | None
+                ) -> tuple[dict[str, np.ndarray], dict[str, tuple[int, int]], int]:
+    """Y-net's scene maps, the original (height, width) of each of `scene_ids` (SDD: its reference
+    image under `sdd`; ETH/UCY: the scene index) and the maps' channel count."""
+    maps = load_semantic_maps(maps_path)
+    if ethucy_scenes is None:
+        sizes = image_sizes(sdd, scene_ids)
+    else:
+        sizes = {name: info.image_hw for name, info in ethucy_scenes.items()}
+    classes = {m.shape[0] for m in maps.values()}
+    if len(classes) != 1:
+        raise ValueError(f"{maps_path}: maps of different channel counts {sorted(classes)}")
+    return maps, sizes, classes.pop()
+
+
+# ---------------------------------------------------------------------------------------------
+# Y-net
+
+YNET_REPORTED_SETTINGS = ("resize", "kernel_size", "sigma", "crop", "crop_lead_steps", "waypoints",
+                          "batch_size", "learning_rate", "augmentations", "steps_per_epoch",
+                          "semantic_classes")
+"""The settings a run record shows under `train.settings` (read from the checkpoint)."""
+
+
+def train_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n_past: int,
+               folder: Path, val_windows: int, seed: int, device: torch.device = CPU,
+               preemption: Preemption = NEVER) -> dict:
+    """Train (or resume) Y-net in `folder` (`last.pt`, `best.pt`, `history.csv`), the epoch selected
+    on `val_windows` validation windows sampled with `seed`; returns the training facts."""
+    val = sample_windows(bench.val, val_windows, seed)
+    return train(bench.train, val, semantic_maps, sizes, settings, n_past, folder / "last.pt",
+                 folder / "best.pt", folder / "history.csv", device=device, preemption=preemption)
+
+
+def score_ynet(bench: Benchmark, semantic_maps, sizes, folder: Path, params: ShortTermModelsParams,
+               ks: list[int], device: torch.device = CPU) -> tuple[dict[int, dict], float, dict]:
+    """Score the best epoch in `folder` at every K_e of `ks`: (scores per K, seconds, the model's
+    reported settings). Reads only the scoring keys of `params` (temperature, rel_threshold, the
+    K lists, rounds, seed, eval_batch_size, eval_chunk_size, bf16)."""
+    model, loaded = load_model(folder / "best.pt", device)
+    torch.set_num_threads(loaded.threads)
+    torch.set_flush_denormal(True)  # as training leaves it (the two once ran in one process)
+    scenes = group_by_scene(bench.test, semantic_maps, sizes, loaded.resize, device)
+    ttst = TtstParams(temperature=params.temperature, rel_threshold=params.rel_threshold)
+    eval_params = params.eval_params()
+    start, results = time.perf_counter(), {}
+    for k in ks:  # K_a = 1, no CWS: the goal is the only waypoint
+        options = sampling_options(k, 1, ttst, CwsParams(), use_ttst=True, use_cws=False)
+
+        def sample(seed: int, options=options) -> tuple[np.ndarray, np.ndarray]:
+            return predict_scenes(model, scenes, loaded, options, seed, eval_params,
+                                  len(bench.test), f"Y-net K_e={options.K_e}", loaded.crop,
+                                  loaded.crop_lead_steps)
+
+        results[k] = score(sample, bench, params.rounds, params.seed)
+    seconds = time.perf_counter() - start
+    return results, seconds, {key: getattr(loaded, key) for key in YNET_REPORTED_SETTINGS}
+
+
+# ---------------------------------------------------------------------------------------------
+# Baselines
+
+
+def train_baseline(name: str, bench: Benchmark, config, folder: Path, train_seed: int,
+                   val_windows: int, seed: int, device: torch.device = CPU,
+                   preemption: Preemption = NEVER) -> dict:
+    """Fit S-GAN or PECNet in `folder` (resuming), the epoch selected on `val_windows` validation
+    windows sampled with `seed`; returns the training facts."""
+    val = sample_windows(bench.val, val_windows, seed)
+    model = baselines.get(name).fit(bench.train, val, config, folder, train_seed, device=device,
+                                    preemption=preemption)
+    fit = model.fit_result
+    return {"epochs": fit.epochs, "best_epoch": fit.best_epoch, "best_val_ade_px": fit.best_val_ade,
+            "train_seconds": fit.train_seconds, "train_windows": len(bench.train),
+            "val_windows": len(val)}
+
+
+def score_baseline(name: str, bench: Benchmark, folder: Path, ks: list[int], rounds: int, seed: int,
+                   device: torch.device = CPU) -> tuple[dict[int, dict], float]:
+    """Score the best epoch in `folder` (its config from the checkpoint) at every K of `ks`."""
+    model = baselines.get(name).load(folder, device)
+    start, results = time.perf_counter(), {}
+    for k in ks:
+        def sample(seed: int, k=k) -> tuple[np.ndarray, None]:
+            return model.predict(bench.test, k, generator(device, seed)), None
+
+        results[k] = score(sample, bench, rounds, seed)
+    return results, time.perf_counter() - start
+
+
+# ---------------------------------------------------------------------------------------------
+# Records
+
+
+def not_run_record(dataset: str, model: str, profile: str, params: ShortTermModelsParams) -> dict:
+    reason = (f"Y-net is not trained on {dataset} in the {profile} profile (it runs on "
+              f"{', '.join(params.ynet_datasets) or 'no dataset'} here)")
+    if params.why_subset:
+        reason += f": {params.why_subset}"
+    return {"dataset": dataset, "model": model, "profile": profile, "trained": False,
+            "not_run_reason": reason}
+
+
+def training_record(dataset: str, model: str, profile: str, facts: dict) -> dict:
+    """What a training stage writes beside its checkpoint folder."""
+    return {"dataset": dataset, "model": model, "profile": profile, "trained": True, "train": facts}
+
+
+def run_record(dataset: str, model: str, profile: str, bench: Benchmark, rounds: int, ks: list[int],
+               results: dict[int, dict], facts: dict) -> dict:
+    """The run's metrics (`metrics/short_term/runs/<dataset>_<model>.json`); `facts`: the training
+    facts with `eval_seconds` (and, for Y-net, `settings`) added."""
+    return {"dataset": dataset, "model": model, "profile": profile, "trained": True,
+            "unit": bench.unit, "n_windows": len(bench.test), "rounds": rounds, "ks": ks,
+            **{f"k{k}": result for k, result in results.items()},
+            "train_seconds": facts["train_seconds"], "eval_seconds": facts["eval_seconds"],
+            "train": facts}

@@ -1,0 +1,188 @@
+"""Y-net scoring: TTST and CWS sampling over seeded rounds, the one metric, and the evaluation
+sequence of the long-term benchmarks (stages `evaluate_ynet`, `evaluate_ynet_horizon`,
+`evaluate_short_term_ynet`, `evaluate_ind`).
+
+`evaluation_sequence` is the main result (TTST + CWS over `eval.rounds` rounds), the Table 3/4
+ablation (no TTST no CWS, CWS only, both) and the K_e x K_a grid behind the paper's K_a figure,
+written once for SDD and inD. Every round is seeded (`eval.seed + round`), so a fixed checkpoint
+gives bit-identical metrics (on one CPU; on CUDA up to float rounding). Runs on the model's device;
+on CUDA the trajectory decoder runs in bfloat16 (goals, and so FDE, stay float32). The model's
+settings come from its checkpoint (`load_model`), never from params.yaml.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import cv2
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.data.ynet_data import SceneWindows, model_input, padded_semantic, window_inputs
+from pipeline.device import CPU, conv_layout, generator, module_device
+from pipeline.harness.metrics import window_errors
+from pipeline.runners.ynet_training import YnetSettings
+from ynet.heatmaps import distance_maps
+from ynet.model import YNet, YNetConfig
+from ynet.sampling import SamplingOptions, predict
+from ynet.segmentation import PAD_CLASS
+
+
+def sampling_options(k_e: int, k_a: int, ttst: TtstParams, cws: CwsParams, use_ttst: bool,
+                     use_cws: bool) -> SamplingOptions:
+    return SamplingOptions(K_e=k_e, K_a=k_a, temperature=ttst.temperature,
+                           rel_threshold=ttst.rel_threshold, use_ttst=use_ttst, use_cws=use_cws,
+                           sigma_factor=cws.sigma_factor, ratio=cws.ratio, rot=cws.rot)
+
+
+def load_model(path: Path, device: torch.device = CPU) -> tuple[YNet, YnetSettings]:
+    """Weights saved by `train_ynet.train` (on any device), ready for inference on `device`."""
+    saved = torch.load(path, weights_only=True, map_location="cpu")
+    config = YNetConfig(**{k: tuple(v) if isinstance(v, list) else v
+                           for k, v in saved["config"].items()})
+    model = YNet(config)
+    model.load_state_dict(saved["model"])
+    model.eval()
+    return conv_layout(model, device), YnetSettings(**saved["settings"])
+
+
+def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
+                   options: SamplingOptions, seed: int, params: EvalParams,
+                   n_windows: int, desc: str, crop: int = 0,
+                   crop_lead_steps: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Paths (N, K, n_f, 2) and goals (N, K, 2) in original pixels, rows as in the arrays.
+
+    crop > 0 runs the model on a crop x crop window ahead of each agent instead of the whole map
+    (`ynet_data.window_inputs`): short-term futures stay near the agent. Runs on the model's device
+    (scenes are moved there); on CUDA the trajectory decoder runs in bfloat16.
+    """
+    device = module_device(model)
+    draws = generator(device, seed)
+    bf16 = params.bf16 or device.type == "cuda"
+    n_future = scenes[0].future.shape[1]
+    paths = np.zeros((n_windows, options.K, n_future, 2))
+    goals = np.zeros((n_windows, options.K, 2))
+    with tqdm(total=n_windows, desc=desc, leave=False, disable=None) as progress:
+        for scene in scenes:
+            scene = scene.to(device)  # a no-op for scenes grouped on the model's device
+            for start in range(0, len(scene), params.batch_size):
+                past = scene.past[start:start + params.batch_size]
+                inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
+                                               crop, PAD_CLASS, crop_lead_steps)  # origin (B, 2)
+                out = predict(model, inputs, past[:, -1] - origin, options, draws,
+                              settings.max_distance, params.chunk_size, bf16)
+                rows = scene.index[start:start + params.batch_size]
+                paths[rows] = (out.trajectory + origin[:, None, None]).cpu().numpy() / settings.resize
+                goals[rows] = (out.goals + origin[:, None]).cpu().numpy() / settings.resize
+                progress.update(len(rows))
+    return paths, goals
+
+
+def summarize_rounds(rounds: list[dict[str, float]]) -> dict[str, dict[str, float]]:
+    """{metric: {mean, std, min, max}} over rounds (std = 0 for one round)."""
+    result = {}
+    for key in ("ade", "fde", "ade_joint", "fde_joint"):
+        values = np.array([r[key] for r in rounds])
+        result[key] = {"mean": float(values.mean()), "std": float(values.std()),
+                       "min": float(values.min()), "max": float(values.max())}
+    return result
+
+
+def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> dict:
+    scores = []
+    for r in range(rounds):
+        paths, goals = predict_scenes(model, scenes, settings, options, params.seed + r, params,
+                                      len(truth), f"{desc} round {r + 1}/{rounds}")
+        errors = window_errors(paths, truth, goals)
+        scores.append({"ade": float(errors.ade.mean()), "fde": float(errors.fde.mean()),
+                       "ade_joint": float(errors.ade.mean()),
+                       "fde_joint": float(errors.fde_joint.mean())})
+    return {**summarize_rounds(scores), "k_e": options.K_e, "k_a": options.K_a, "rounds": rounds,
+            "per_round": scores}
+
+
+@torch.inference_mode()
+def qualitative(model: YNet, scene: SceneWindows, row: int, settings: YnetSettings,
+                options: SamplingOptions, image: np.ndarray, seed: int) -> dict[str, np.ndarray]:
+    """Heatmaps and samples of one window, in the resized scene image's pixels."""
+    device = module_device(model)
+    scene = scene.to(device)
+    semantic = padded_semantic(scene.semantic, PAD_CLASS)
+    height, width = scene.semantic.shape[-2:]
+    past = scene.past[row:row + 1]
+    inputs = model_input(semantic, past, settings.max_distance)
+    out = predict(model, inputs, past[:, -1], options, generator(device, seed),
+                  settings.max_distance)
+    features = model.encode(inputs)
+    goal_logits = model.predict_goals(features)[0, -1]
+    first = out.waypoints[:, :1]  # (1, 1, n_w, 2) the first sample's goal and waypoints
+    maps = distance_maps(first[0], *semantic.shape[-2:], settings.max_distance)
+    trajectory_logits = model.predict_trajectory(features, maps)[0]  # (n_f, H, W)
+    return {
+        "scene_image": cv2.cvtColor(cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA),
+                                    cv2.COLOR_BGR2RGB),
+        "past": past[0].cpu().numpy(), "future": scene.future[row].cpu().numpy(),
+        "goal_heatmap": torch.sigmoid(goal_logits / options.temperature)[:height, :width].cpu().numpy(),
+        "sampled_goals": out.goals[0].cpu().numpy(),
+        "trajectory_heatmap": torch.sigmoid(trajectory_logits).amax(0)[:height, :width].cpu().numpy(),
+        "predictions": out.trajectory[0].cpu().numpy(),
+    }
+
+
+def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
+                        params: EvalParams, ttst: TtstParams, cws: CwsParams, truth: np.ndarray,
+                        label: str = "", extras: bool = True,
+                        after_main: Callable[[dict], None] | None = None) -> dict:
+    """The long-term evaluation: {"main", "main_seconds"[, "ablation"][, "ka_grid"], "eval_seconds"}.
+
+    main: TTST + CWS at (`k_e`, `k_a`) over `params.rounds` rounds. With `extras`: the ablation
+    (`ablation_rounds` rounds of no TTST no CWS and CWS only, beside the main result; skipped at 0
+    rounds) and the K_e x K_a grid (one round per cell; skipped when `ka_grid_k_e` is empty).
+    `label` prefixes the progress bars; `after_main(partial result)` runs once the main result is in.
+    """
+    start = time.perf_counter()
+
+    def run(k_e: int, k_a: int, use_ttst: bool, use_cws: bool, rounds: int, desc: str) -> dict:
+        options = sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
+        return evaluate(model, scenes, settings, options, params, truth, rounds, f"{label}{desc}")
+
+    result = {"main": run(params.k_e, params.k_a, True, True, params.rounds, "TTST+CWS")}
+    result["main_seconds"] = time.perf_counter() - start
+    if after_main is not None:
+        after_main(result)
+    if extras and params.ablation_rounds:
+        result["ablation"] = {"ttst_cws": result["main"]}
+        for name, use_ttst, use_cws in (("none", False, False), ("cws", False, True)):
+            result["ablation"][name] = run(params.k_e, params.k_a, use_ttst, use_cws,
+                                           params.ablation_rounds, name)
+    if extras and params.ka_grid_k_e:
+        result["ka_grid"] = [run(k_e, k_a, True, True, 1, f"K_e={k_e} K_a={k_a}")
+                             for k_e in params.ka_grid_k_e for k_a in params.ka_grid_k_a]
+    result["eval_seconds"] = time.perf_counter() - start
+    return result
+
+
+def qualitative_arrays(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
+                       params: EvalParams, ttst: TtstParams, cws: CwsParams,
+                       sdd_root: Path) -> dict[str, np.ndarray]:
+    """The qualitative figure's arrays: for each of `params.qualitative_scenes` (i = 0, 1, ...), its
+    window that moves farthest, as `qualitative` draws it under the main sampling options, keyed
+    `<name>_<i>`, plus `scene_id_<i>`."""
+    options = sampling_options(params.k_e, params.k_a, ttst, cws, True, True)
+    arrays = {}
+    by_id = {s.scene_id: s for s in scenes}
+    for i, scene_id in enumerate(params.qualitative_scenes):
+        scene = by_id[scene_id]
+        row = int(torch.linalg.norm(scene.future[:, -1] - scene.past[:, -1], dim=-1).argmax())
+        scene_name, video = scene_id.rsplit("_", 1)
+        image = cv2.imread(str(Path(sdd_root) / "annotations" / scene_name / f"video{video}" /
+                               "reference.jpg"))
+        for key, value in qualitative(model, scene, row, settings, options, image,
+                                      params.seed).items():
+            arrays[f"{key}_{i}"] = value
+        arrays[f"scene_id_{i}"] = np.array(scene_id)
+    return arrays

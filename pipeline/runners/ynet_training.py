@@ -1,0 +1,354 @@
+"""Y-net training: the train split trains, the val split selects the epoch (stages `train_ynet`,
+`train_ynet_horizon`, `train_short_term_ynet`, `train_ind`).
+
+One scene per batch; each epoch visits every train scene under `augmentations` of the 8
+rotation/flip variants (drawn at random per scene and epoch, seeded), its windows in shuffled
+batches. After every epoch: validation ADE/FDE (deterministic: softargmax goal and waypoints, one
+path; model selection never sees the test set), a checkpoint (weights, optimiser, RNG states,
+history) written atomically, and the best weights kept. Re-running after an interruption resumes
+from the last checkpoint; on SIGTERM / SIGINT or when `runtime.max_minutes` is spent, the epoch's
+progress is checkpointed too (`pipeline.preemption`), so the run resumes at the very step it
+stopped at and ends with the weights of an uninterrupted run. Runs on `runtime.device`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import random
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+import torch
+from tqdm import tqdm
+
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import (AUGMENTATIONS, SceneWindows, augment, cropped_training_batch,
+                                     group_by_scene, padded_semantic, training_batch, window_inputs)
+from pipeline.device import CPU, autocast, conv_layout, restore_rng_states, rng_states
+from pipeline.harness.metrics import ade_fde
+from pipeline.io import copy_file, save_torch, write_csv
+from pipeline.preemption import NEVER, Preemption
+from ynet.heatmaps import distance_maps, upstream_max_distance
+from ynet.loss import ynet_loss
+from ynet.model import YNet, YNetConfig
+from ynet.sampling import softargmax
+from ynet.segmentation import PAD_CLASS
+
+
+@dataclass
+class YnetSettings:
+    """Section `ynet.<profile>` of params.yaml: Y-net's model and training settings."""
+
+    resize: float = 0.25
+    """Scale of maps and coordinates relative to the original image (authors: 0.25 for SDD)."""
+    epochs: int = 300
+    """Training epochs."""
+    batch_size: int = 8
+    """Windows per batch (all of one scene)."""
+    learning_rate: float = 1e-4
+    """Adam learning rate."""
+    augmentations: int = 8
+    """How many of the 8 rotation/flip variants each scene is seen under per epoch (8 = all)."""
+    loss_scale: float = 1000.0
+    """Factor on both BCE losses (authors: 1000)."""
+    kernel_size: int = 31
+    """Side of the Gaussian ground-truth kernel, pixels of the resized map."""
+    sigma: float = 4.0
+    """Standard deviation of the Gaussian ground truth, pixels of the resized map."""
+    waypoints: list[int] = field(default_factory=lambda: [14, 29])
+    """Future step indices conditioning the trajectory decoder; the last is the goal."""
+    encoder_channels: list[int] = field(default_factory=lambda: [32, 32, 64, 64, 64])
+    decoder_channels: list[int] = field(default_factory=lambda: [64, 64, 64, 32, 32])
+    distance_norm: str = "upstream"
+    """'upstream': distance maps divided by the authors' constant; 'map': by each map's own maximum."""
+    distance_gain: float = 1.0
+    """Multiplies the 'upstream' distance maps (1 = the authors'). Their slope is tiny (2 / 371 per
+    pixel at resize 0.125), so the decoders need large weights to turn a distance map into a sharp
+    peak; a steeper input reaches those in far fewer steps (see the README's profile table)."""
+    seed: int = 0
+    """Seeds weights, shuffling and augmentation draws."""
+    threads: int = 2
+    """CPU threads for torch."""
+    semantic_classes: int = 6
+    """Channels of the scene map: SDD 6 (5 classes + padding), ETH/UCY 3 (road, not road, padding)."""
+    steps_per_epoch: int = 0
+    """Optimiser steps per epoch: the first of the epoch's shuffled batches; 0 = all of them."""
+    head_bias: float | None = None
+    """Initial bias of the decoders' output logits (see `ynet.model.YNetConfig.head_bias`);
+    None = PyTorch's default, as the authors."""
+    crop: int = 0
+    """0: the model sees whole scenes (the authors). > 0 (a multiple of 32): a crop x crop window
+    around each agent in training, validation and scoring (`ynet_data.window_inputs`); short
+    horizons whose futures stay near the agent then cost a fraction of the pixels."""
+    crop_lead_steps: float = 0.0
+    """The crop is centred this many steps of the agent's last observed velocity ahead of it."""
+
+    def __post_init__(self):
+        if not 0 < self.resize <= 1:
+            raise ValueError(f"resize must be in (0, 1], got {self.resize}")
+        if not 1 <= self.augmentations <= len(AUGMENTATIONS):
+            raise ValueError(f"augmentations must be 1..{len(AUGMENTATIONS)}")
+        if self.distance_norm not in ("upstream", "map"):
+            raise ValueError("distance_norm must be 'upstream' or 'map'")
+        if self.distance_gain <= 0 or (self.distance_norm == "map" and self.distance_gain != 1):
+            raise ValueError("distance_gain must be positive, and 1 with distance_norm 'map'")
+        if min(self.epochs, self.batch_size, self.semantic_classes) < 1:
+            raise ValueError("epochs, batch_size and semantic_classes must be positive")
+        if self.steps_per_epoch < 0:
+            raise ValueError("steps_per_epoch must be >= 0 (0 = every batch)")
+        if self.crop < 0 or self.crop % 32 or (self.crop and self.distance_norm == "map"):
+            raise ValueError(f"crop must be 0 or a multiple of 32, with distance_norm 'upstream' "
+                             f"(crops need distance maps of a fixed scale), got {self.crop}")
+
+    def model_config(self, n_past: int, n_future: int) -> YNetConfig:
+        return YNetConfig(obs_len=n_past, pred_len=n_future, semantic_classes=self.semantic_classes,
+                          encoder_channels=tuple(self.encoder_channels),
+                          decoder_channels=tuple(self.decoder_channels),
+                          waypoints=tuple(self.waypoints), head_bias=self.head_bias)
+
+    @property
+    def max_distance(self) -> float | None:
+        if self.distance_norm == "map":
+            return None
+        return upstream_max_distance(self.resize) / self.distance_gain
+
+
+def scale_waypoints(waypoints: list[int], n_future: int, reference_future: int = 30) -> list[int]:
+    """Waypoint steps for another horizon, at the same fractions of it as the 30-s config's."""
+    # Half rounds up: at t_f = 5 the 15-s waypoint of the 30-s config becomes step 3 (index 2).
+    scaled = sorted({int(np.floor((w + 1) * n_future / reference_future + 0.5)) - 1
+                     for w in waypoints})
+    return [max(0, w) for w in scaled[:-1]] + [n_future - 1]
+
+
+def image_sizes(sdd_root: Path, scene_ids) -> dict[str, tuple[int, int]]:
+    """Original (height, width) of each video's reference image."""
+    sizes = {}
+    for scene_id in scene_ids:
+        scene, video = scene_id.rsplit("_", 1)
+        path = sdd_root / "annotations" / scene / f"video{video}" / "reference.jpg"
+        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        if image is None:
+            raise FileNotFoundError(f"{path}: cannot read the scene image")
+        sizes[scene_id] = image.shape[:2]
+    return sizes
+
+
+def seed_everything(seed: int) -> None:
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+
+
+@torch.inference_mode()
+def deterministic_predict(model: YNet, scene: SceneWindows, settings: YnetSettings,
+                          batch_size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Softargmax waypoints -> one path per window; returns (paths, goals) in resized pixels."""
+    paths, goals = [], []
+    for start in range(0, len(scene), batch_size):
+        past = scene.past[start:start + batch_size]
+        inputs, origin = window_inputs(scene.semantic, past, settings.max_distance, settings.crop,
+                                       PAD_CLASS, settings.crop_lead_steps)  # origin (B, 2)
+        height, width = inputs.shape[-2:]
+        features = model.encode(inputs)
+        waypoint_logits = model.predict_goals(features)[:, list(model.config.waypoints)]
+        waypoints = softargmax(waypoint_logits)  # (B, n_w, 2)
+        maps = distance_maps(waypoints, height, width, settings.max_distance)
+        path = softargmax(model.predict_trajectory(features, maps))  # (B, n_f, 2)
+        paths.append(path + origin[:, None])
+        goals.append(waypoints[:, -1] + origin)
+    return torch.cat(paths).cpu().numpy(), torch.cat(goals).cpu().numpy()
+
+
+def validate(model: YNet, scenes: list[SceneWindows], settings: YnetSettings) -> dict[str, float]:
+    """Val ADE / FDE in original pixels (deterministic prediction, K = 1)."""
+    model.eval()
+    preds, goals, truths = [], [], []
+    for scene in scenes:
+        path, goal = deterministic_predict(model, scene, settings, settings.batch_size)
+        preds.append(path)
+        goals.append(goal)
+        truths.append(scene.future.cpu().numpy())
+    scores = ade_fde(np.concatenate(preds)[:, None] / settings.resize,
+                     np.concatenate(truths) / settings.resize,
+                     np.concatenate(goals)[:, None] / settings.resize)
+    return {"val_ade": scores["ade"], "val_fde": scores["fde"]}
+
+
+def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
+               rng: np.random.Generator) -> list[tuple[int, int, bool, np.ndarray]]:
+    """(scene index, turns, flip, window rows) for every batch of one epoch, shuffled."""
+    plan = []
+    for s, scene in enumerate(scenes):
+        variants = rng.choice(len(AUGMENTATIONS), settings.augmentations, replace=False)
+        for variant in variants:
+            turns, flip = AUGMENTATIONS[variant]
+            order = rng.permutation(len(scene))
+            for start in range(0, len(order), settings.batch_size):
+                plan.append((s, turns, flip, order[start:start + settings.batch_size]))
+    return [plan[i] for i in rng.permutation(len(plan))]
+
+
+def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: YnetSettings,
+                plan: list[tuple[int, int, bool, np.ndarray]], epoch: int, losses: list[float],
+                device: torch.device = CPU, preemption: Preemption = NEVER,
+                save_partial=None) -> float:
+    """One epoch's optimiser steps, from step `len(losses)` of `plan` on; returns the mean loss.
+
+    `losses` holds the steps already taken (a resumed epoch) and grows in place. Before each step
+    the loop asks `preemption`; if it says stop, `save_partial(losses)` checkpoints the epoch so
+    far and `StopRequested` is raised.
+    """
+    model.train()
+    if settings.steps_per_epoch:
+        plan = plan[:settings.steps_per_epoch]  # shuffled: a random subset of the batches
+    augmented: dict[tuple[int, int, bool], tuple[SceneWindows, torch.Tensor]] = {}
+    for step in tqdm(range(len(losses), len(plan)), desc=f"epoch {epoch}", leave=False,
+                     disable=None, initial=len(losses), total=len(plan)):
+        if preemption.stop_reason():
+            save_partial(losses)
+            raise preemption.request(f"epoch {epoch}, step {step} of {len(plan)}")
+        s, turns, flip, rows = plan[step]
+        key = (s, turns, flip)
+        if key not in augmented:  # the scene's map is prepared once per augmentation
+            scene = augment(scenes[s], turns, flip)
+            augmented[key] = (scene, padded_semantic(scene.semantic, PAD_CLASS))
+        scene, semantic = augmented[key]
+        if settings.crop:
+            batch = cropped_training_batch(
+                scene.semantic, scene.past[rows], scene.future[rows], tuple(settings.waypoints),
+                settings.max_distance, settings.kernel_size, settings.sigma, settings.crop,
+                settings.crop_lead_steps, PAD_CLASS)
+        else:
+            batch = training_batch(semantic, scene.past[rows], scene.future[rows],
+                                   tuple(settings.waypoints), settings.max_distance,
+                                   settings.kernel_size, settings.sigma)
+        inputs = batch.inputs
+        if device.type == "cuda":
+            inputs = inputs.contiguous(memory_format=torch.channels_last)
+        with autocast(device):
+            goal_logits, trajectory_logits = model(inputs, batch.waypoint_maps)
+        loss = ynet_loss(goal_logits.float(), trajectory_logits.float(), batch.target,
+                         settings.loss_scale).total
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        optimizer.step()
+        losses.append(loss.item())
+    return float(np.mean(losses))
+
+
+RESUMABLE_SETTINGS = ("epochs", "threads")  # may change between an interrupted run and its resumption
+# Settings added after checkpoints existed: left out of the fingerprint at their defaults, so those
+# checkpoints still resume.
+ADDED_SETTINGS = {"semantic_classes": 6, "steps_per_epoch": 0, "head_bias": None,
+                  "distance_gain": 1.0, "crop": 0, "crop_lead_steps": 0.0}
+
+
+def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str, np.ndarray],
+                    *arrays: WindowArrays) -> str:
+    """SHA-256 of what a training run depends on: settings, windows and scene maps."""
+    digest = hashlib.sha256()
+    kept = {k: v for k, v in asdict(settings).items() if k not in RESUMABLE_SETTINGS
+            and not (k in ADDED_SETTINGS and v == ADDED_SETTINGS[k])}
+    digest.update(json.dumps({"settings": kept, "n_past": n_past}, sort_keys=True).encode())
+    for a in arrays:
+        for values in (a.window_id, a.first_frame, a.past, a.future):
+            digest.update(np.ascontiguousarray(values).tobytes())
+        digest.update("\x00".join(map(str, a.scene_id)).encode())
+    for scene_id in sorted(semantic_maps):
+        digest.update(scene_id.encode())
+        digest.update(np.ascontiguousarray(semantic_maps[scene_id]).tobytes())
+    return digest.hexdigest()
+
+
+def resumable_checkpoint(path: Path, run_id: str, epochs: int,
+                         device: torch.device = CPU) -> dict | None:
+    """The checkpoint at `path` if this run can continue from it, else None (saying why)."""
+    if not path.exists():
+        return None
+    saved = torch.load(path, weights_only=True, map_location=device)
+    if saved.get("run_id") != run_id:
+        print(f"train_ynet: {path} was trained with other settings, windows or maps; starting afresh")
+        return None
+    if saved["state"]["epoch"] > epochs:
+        print(f"train_ynet: {path} has {saved['state']['epoch']} epochs, more than the {epochs} asked "
+              "for; starting afresh")
+        return None
+    return saved
+
+
+def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, sizes,
+          settings: YnetSettings, n_past: int, checkpoint: Path, best_path: Path,
+          history_path: Path, epochs: int | None = None, device: torch.device = CPU,
+          preemption: Preemption = NEVER) -> dict:
+    """Train (resuming from `checkpoint` if present); returns the training summary.
+
+    Checkpoint = weights, optimiser, the plan RNG's state at the start of the next epoch (or of the
+    current one, with `partial_losses` of the steps already taken in it), torch's RNG, history.
+    """
+    torch.set_num_threads(settings.threads)
+    torch.set_flush_denormal(True)  # otherwise Adam crawls through denormal numbers on CPU
+    seed_everything(settings.seed)
+    n_future = train_arrays.future.shape[1]
+    model = conv_layout(YNet(settings.model_config(n_past, n_future)), device)  # seeded init on CPU
+    optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
+    rng = np.random.default_rng(settings.seed)
+    train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize, device)
+    val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize, device)
+
+    state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
+    partial_losses: list[float] = []
+    run_id = run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)
+    kept_best = checkpoint.with_name("best.pt")  # the best weights, kept beside the checkpoint
+    saved = resumable_checkpoint(checkpoint, run_id, epochs or settings.epochs, device)
+    if saved is not None:
+        model.load_state_dict(saved["model"])
+        optimizer.load_state_dict(saved["optimizer"])
+        rng.bit_generator.state = saved["rng"]["numpy_plan"]
+        restore_rng_states(saved["rng"], device)
+        state = saved["state"]
+        partial_losses = list(saved.get("partial_losses", []))
+        print(f"train_ynet: resuming after epoch {state['epoch']}"
+              + (f", step {len(partial_losses)}" if partial_losses else ""))
+
+    def save_checkpoint(plan_state: dict, losses: list[float]) -> None:
+        save_torch({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
+                     "rng": {"numpy_plan": plan_state, **rng_states(device)}, "state": state,
+                     "run_id": run_id, "partial_losses": list(losses)}, checkpoint)
+
+    for epoch in range(state["epoch"] + 1, (epochs or settings.epochs) + 1):
+        if preemption.stop_reason():  # the last epoch's checkpoint is already on disk
+            raise preemption.request(f"the end of epoch {epoch - 1}")
+        start = time.perf_counter()
+        plan_state = rng.bit_generator.state  # regenerates this epoch's plan on resumption
+        plan = epoch_plan(train_scenes, settings, rng)
+        loss = train_epoch(model, optimizer, train_scenes, settings, plan, epoch, partial_losses,
+                           device, preemption, lambda losses: save_checkpoint(plan_state, losses))
+        partial_losses = []
+        scores = validate(model, val_scenes, settings)
+        state["seconds"] += time.perf_counter() - start
+        state["history"].append({"epoch": epoch, "train_loss": loss, **scores,
+                                 "seconds": state["seconds"]})
+        print(f"epoch {epoch}: loss {loss:.3f}  val ADE {scores['val_ade']:.2f}  "
+              f"FDE {scores['val_fde']:.2f}  ({state['seconds']:.0f} s)")
+        if state["best"] is None or scores["val_ade"] < state["best"]["val_ade"]:
+            state["best"] = {"epoch": epoch, **scores}
+            save_torch({"model": model.state_dict(), "config": asdict(model.config),
+                         "settings": asdict(settings), "epoch": epoch}, kept_best)
+        state["epoch"] = epoch
+        save_checkpoint(rng.bit_generator.state, [])
+        write_csv(pd.DataFrame(state["history"]), history_path)
+    # DVC deletes the stage's outputs before a re-run, so a run resumed after its last epoch (or
+    # after the best epoch) must still deliver them: both come from the checkpoint folder.
+    if kept_best != best_path:
+        copy_file(kept_best, best_path)
+    write_csv(pd.DataFrame(state["history"]), history_path)
+    return {"epochs": state["epoch"], "best_epoch": state["best"]["epoch"],
+            "best_val_ade": state["best"]["val_ade"], "best_val_fde": state["best"]["val_fde"],
+            "train_seconds": state["seconds"], "train_windows": len(train_arrays),
+            "val_windows": len(val_arrays)}

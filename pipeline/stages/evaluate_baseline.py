@@ -1,0 +1,55 @@
+"""Stage `evaluate_baseline@<model>-<t_f>`: score one baseline at one horizon with the shared metric.
+
+Loads the model (`constant_velocity` needs no checkpoint; `sgan` / `pecnet` take the checkpoint
+folder trained for this horizon; `rpecnet` the t_f = 5 PECNet's), draws K samples per window of the
+chosen split in `rounds` seeded rounds, and writes best-of-K ADE / FDE, independent and joint, as
+mean and spread over rounds, with the training facts the checkpoint records
+(`pipeline.harness.baseline_runs.score_split`). `evaluate_rpecnet` and
+`evaluate_constant_velocity` are this stage for one model. Params: `evaluate_baseline`,
+`windows.n_past`, `runtime.device`.
+
+    python -m pipeline.stages.evaluate_baseline --model pecnet --horizon 30 \
+        --table data/horizon_windows/tf30.parquet --checkpoint-dir checkpoints/pecnet_tf30 \
+        --metrics metrics/baselines/pecnet_tf30.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import torch
+
+from pipeline.config import (EvaluateBaselineParams, RuntimeParams, WindowParams, load_section,
+                             read_params)
+from pipeline.device import describe, select_device
+from pipeline.harness import baselines
+from pipeline.harness.baseline_runs import score_split
+from pipeline.io import write_json
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", required=True, choices=sorted(baselines.BASELINES))
+    parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
+    parser.add_argument("--table", type=Path, required=True, help="window table (parquet)")
+    parser.add_argument("--checkpoint-dir", type=Path, default=None,
+                        help="trained model (rpecnet: the t_f = 5 PECNet); not for constant_velocity")
+    parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
+    args = parser.parse_args(argv)
+    needs_checkpoint = args.model != "constant_velocity"
+    if needs_checkpoint != (args.checkpoint_dir is not None):
+        parser.error(f"--checkpoint-dir is {'required' if needs_checkpoint else 'not taken'} for {args.model}")
+    all_params = read_params()
+    params = load_section(EvaluateBaselineParams, "evaluate_baseline", all_params)
+    n_past = load_section(WindowParams, "windows", all_params).n_past
+    runtime = load_section(RuntimeParams, "runtime", all_params)
+    torch.set_num_threads(params.threads)
+    device = select_device(runtime.device)
+    print(f"evaluate_baseline {args.model} t_f = {args.horizon}: {describe(device)}", flush=True)
+    write_json(score_split(args.model, args.table, args.horizon, args.checkpoint_dir, n_past, params,
+                           device), args.metrics)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,44 @@
+"""Stage `evaluate_constant_velocity@<t_f>`: the constant-velocity baseline (the last observed
+velocity extrapolated; nothing trained) scored with the shared metric at horizon t_f (as
+`evaluate_baseline --model constant_velocity`; layout of `metrics/baselines/<model>_tf<H>.json`).
+Params: `evaluate_baseline`, `windows.n_past`, `runtime.device`.
+
+    python -m pipeline.stages.evaluate_constant_velocity --horizon 30 \
+        --table data/horizon_windows/tf30.parquet --metrics metrics/baselines/constant_velocity_tf30.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import torch
+
+from pipeline.config import (EvaluateBaselineParams, RuntimeParams, WindowParams, load_section,
+                             read_params)
+from pipeline.device import describe, select_device
+from pipeline.harness.baseline_runs import score_split
+from pipeline.io import write_json
+
+MODEL = "constant_velocity"
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
+    parser.add_argument("--table", type=Path, required=True, help="window table (parquet)")
+    parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
+    args = parser.parse_args(argv)
+    all_params = read_params()
+    params = load_section(EvaluateBaselineParams, "evaluate_baseline", all_params)
+    n_past = load_section(WindowParams, "windows", all_params).n_past
+    runtime = load_section(RuntimeParams, "runtime", all_params)
+    torch.set_num_threads(params.threads)
+    device = select_device(runtime.device)
+    print(f"evaluate_baseline {MODEL} t_f = {args.horizon}: {describe(device)}", flush=True)
+    write_json(score_split(MODEL, args.table, args.horizon, None, n_past, params, device),
+               args.metrics)
+
+
+if __name__ == "__main__":
+    main()

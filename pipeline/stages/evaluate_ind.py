@@ -1,0 +1,48 @@
+"""Stage `evaluate_ind`: the inD benchmark scored (paper Tables 3/4).
+
+Y-net (its settings from the checkpoint) with TTST + CWS on the test windows over `eval.rounds`
+rounds, the Table 4 ablation and the K_e x K_a grid; S-GAN, PECNet, R-PECNet and constant velocity
+as `evaluate_baseline` scores them (`pipeline.runners.ind`). Writes `metrics/ind_benchmark.json` in
+the layout of `metrics/ynet_eval.json` plus "baselines", "semantic" and the training facts; inD not
+provided: the not-provided record, at once. Params: `profile`, `runtime.device`, `eval.<profile>`,
+`ttst`, `cws`, `evaluate_baseline`, `train_baseline.threads`.
+
+    python -m pipeline.stages.evaluate_ind --ind data/ind --checkpoint-dir checkpoints/ind \
+        --train-metrics metrics/ind_train.json --metrics metrics/ind_benchmark.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from pipeline.config import read_params
+from pipeline.device import describe, select_device
+from pipeline.io import write_json
+from pipeline.runners.ind import IndEvalSettings, evaluate_benchmark
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ind", type=Path, required=True, help="output folder of stage ind_windows")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True, help="of stage train_ind")
+    parser.add_argument("--train-metrics", type=Path, required=True, help="of stage train_ind")
+    parser.add_argument("--metrics", type=Path, required=True)
+    args = parser.parse_args(argv)
+    settings = IndEvalSettings.from_params(read_params())
+    device = select_device(settings.runtime.device)
+    print(f"evaluate_ind: on {describe(device)}")
+    trained = json.loads(args.train_metrics.read_text())
+    result = evaluate_benchmark(args.ind, args.checkpoint_dir, trained, settings, device)
+    write_json(result, args.metrics, sort_keys=True)
+    if not result["provided"]:
+        print(f"evaluate_ind: inD not provided: {result['reason']}")
+        return
+    main_result = result["main"]
+    print(f"evaluate_ind: Y-net ADE {main_result['ade']['mean']:.2f}  FDE {main_result['fde']['mean']:.2f}; "
+          + "  ".join(f"{m} ADE {r['ade']:.2f}" for m, r in result["baselines"].items()))
+
+
+if __name__ == "__main__":
+    main()

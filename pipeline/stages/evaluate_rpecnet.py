@@ -1,0 +1,45 @@
+"""Stage `evaluate_rpecnet@<t_f>`: R-PECNet, the t_f = 5 PECNet rolled out on its own predictions to
+horizon t_f, scored with the shared metric (as `evaluate_baseline --model rpecnet`; layout of
+`metrics/baselines/<model>_tf<H>.json`). Params: `evaluate_baseline`, `windows.n_past`,
+`runtime.device`.
+
+    python -m pipeline.stages.evaluate_rpecnet --horizon 30 --table data/horizon_windows/tf30.parquet \
+        --checkpoint-dir checkpoints/pecnet_tf5 --metrics metrics/baselines/rpecnet_tf30.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import torch
+
+from pipeline.config import (EvaluateBaselineParams, RuntimeParams, WindowParams, load_section,
+                             read_params)
+from pipeline.device import describe, select_device
+from pipeline.harness.baseline_runs import score_split
+from pipeline.io import write_json
+
+MODEL = "rpecnet"
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
+    parser.add_argument("--table", type=Path, required=True, help="window table (parquet)")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True, help="the t_f = 5 PECNet")
+    parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
+    args = parser.parse_args(argv)
+    all_params = read_params()
+    params = load_section(EvaluateBaselineParams, "evaluate_baseline", all_params)
+    n_past = load_section(WindowParams, "windows", all_params).n_past
+    runtime = load_section(RuntimeParams, "runtime", all_params)
+    torch.set_num_threads(params.threads)
+    device = select_device(runtime.device)
+    print(f"evaluate_baseline {MODEL} t_f = {args.horizon}: {describe(device)}", flush=True)
+    write_json(score_split(MODEL, args.table, args.horizon, args.checkpoint_dir, n_past, params,
+                           device), args.metrics)
+
+
+if __name__ == "__main__":
+    main()

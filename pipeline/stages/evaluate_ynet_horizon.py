@@ -1,0 +1,82 @@
+"""Stage `evaluate_ynet_horizon@<t_f>`: Y-net scored at one prediction horizon (paper Figure 4).
+
+Loads the best epoch of `train_ynet_horizon` (its settings from the checkpoint) and scores it on
+the horizon table's test windows: TTST + CWS, K_e from `eval.<profile>`, K_a = 1, over
+`ynet_horizons.<profile>.rounds` seeded rounds. Writes {t_f, profile, trained, n_windows, rounds,
+waypoints, main, eval_seconds, <training summary>}; a horizon that was not trained gets the
+training stage's not-run record. Params: `profile`, `runtime.device`, `ttst`, `cws`,
+`eval.<profile>` (k_e, seed, batch_size, chunk_size, bf16), `ynet_horizons.<profile>.rounds`,
+`windows.n_past`.
+
+    python -m pipeline.stages.evaluate_ynet_horizon --horizon 10 \
+        --table data/horizon_windows/tf10.parquet --semantic-maps data/semantic_maps \
+        --sdd data/raw/sdd --checkpoint-dir checkpoints/ynet_tf10 \
+        --train-metrics metrics/ynet_horizons/train_tf10.json --metrics metrics/ynet_horizons/tf10.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import torch
+
+from pipeline.config import (CwsParams, EvalParams, HorizonParams, RuntimeParams, TtstParams,
+                             WindowParams, load_profile, load_section, read_params)
+from pipeline.data.semantic_maps import load_semantic_maps
+from pipeline.data.ynet_data import group_by_scene
+from pipeline.device import describe, select_device
+from pipeline.io import write_json
+from pipeline.runners.ynet_horizon import horizon_splits, training_summary
+from pipeline.runners.ynet_scoring import evaluate, load_model, sampling_options
+from pipeline.runners.ynet_training import image_sizes
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
+    parser.add_argument("--table", type=Path, required=True, help="horizon window table (parquet)")
+    parser.add_argument("--semantic-maps", type=Path, required=True)
+    parser.add_argument("--sdd", type=Path, required=True, help="fetched SDD root (scene sizes)")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True, help="of train_ynet_horizon")
+    parser.add_argument("--train-metrics", type=Path, required=True, help="of train_ynet_horizon")
+    parser.add_argument("--metrics", type=Path, required=True)
+    args = parser.parse_args(argv)
+    trained = json.loads(args.train_metrics.read_text())
+    if not trained["trained"]:
+        write_json(trained, args.metrics)
+        print(f"evaluate_ynet_horizon: t_f = {args.horizon} s was not trained: "
+              f"{trained['not_run_reason']}")
+        return
+    params = read_params()
+    profile = params["profile"]
+    rounds = load_profile(HorizonParams, "ynet_horizons", params).rounds
+    eval_params = load_profile(EvalParams, "eval", params)
+    ttst, cws = load_section(TtstParams, "ttst", params), load_section(CwsParams, "cws", params)
+    n_past = load_section(WindowParams, "windows", params).n_past
+    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+
+    test = horizon_splits(args.table, n_past, args.horizon)["test"]
+    model, settings = load_model(args.checkpoint_dir / "best.pt", device)
+    print(f"evaluate_ynet_horizon: scoring on {describe(device)}")
+    torch.set_num_threads(settings.threads)
+    torch.set_flush_denormal(True)  # as training left it when both ran in one process
+    sizes = image_sizes(args.sdd, set(test.scene_id))
+    scenes = group_by_scene(test, load_semantic_maps(args.semantic_maps), sizes, settings.resize,
+                            device)
+    options = sampling_options(eval_params.k_e, 1, ttst, cws, True, True)
+    start = time.perf_counter()
+    scores = evaluate(model, scenes, settings, options, eval_params, test.future, rounds,
+                      f"t_f={args.horizon}")
+    write_json({"t_f": args.horizon, "profile": profile, "trained": True, "n_windows": len(test),
+                "rounds": rounds, "waypoints": settings.waypoints, "main": scores,
+                "eval_seconds": time.perf_counter() - start, **training_summary(trained)},
+               args.metrics)
+    print(f"evaluate_ynet_horizon t_f = {args.horizon}: ADE {scores['ade']['mean']:.2f}  "
+          f"FDE {scores['fde']['mean']:.2f} over {len(test)} test windows")
+
+
+if __name__ == "__main__":
+    main()

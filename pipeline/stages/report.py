@@ -1,0 +1,51 @@
+"""Stage `report`: the HTML page with the paper's numbers beside ours, its figures and dvc plots.
+
+Reads every metrics file that exists under `--metrics` (a missing or malformed one becomes an
+explained absence), the paper's values (`--paper`), the data manifests and `dvc.lock` (provenance,
+and the params each stage ran with: the page shows those, not params.yaml, so editing a section no
+stage reads re-renders nothing); the page's contents are documented in `pipeline.report.page`.
+Also writes `--headline`, the small ADE / FDE files `dvc metrics show` prints. Params: `report`.
+
+    python -m pipeline.stages.report --metrics metrics --paper pipeline/report/paper_values.yaml \
+        --scene-counts reports/data/windows_per_scene.json \
+        --segmentation-figures reports/figures/segmentation/predictions \
+        --qualitative data/ynet_predictions/qualitative.npz --manifests manifests --dvc-lock dvc.lock \
+        --out reports/index.html --figures reports/figures/report --plots reports/plots \
+        --headline reports/headline
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from pipeline.config import ReportParams, load_section, read_params
+from pipeline.report.page import Inputs, lock_params, write_report
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--metrics", type=Path, default=Path("metrics"), help="metrics folder")
+    parser.add_argument("--paper", type=Path, default=Path("pipeline/report/paper_values.yaml"))
+    parser.add_argument("--scene-counts", type=Path, default=Path("reports/data/windows_per_scene.json"))
+    parser.add_argument("--segmentation-figures", type=Path, default=Path("reports/figures/segmentation/predictions"))
+    parser.add_argument("--qualitative", type=Path, default=Path("data/ynet_predictions/qualitative.npz"))
+    parser.add_argument("--manifests", type=Path, default=Path("manifests"))
+    parser.add_argument("--dvc-lock", type=Path, default=Path("dvc.lock"))
+    parser.add_argument("--params", type=Path, default=Path("params.yaml"),
+                        help="read for its `report` section only")
+    parser.add_argument("--out", type=Path, required=True, help="the HTML page written")
+    parser.add_argument("--figures", type=Path, required=True, help="folder of the page's PNG figures")
+    parser.add_argument("--plots", type=Path, required=True, help="folder of the dvc plots JSON series")
+    parser.add_argument("--headline", type=Path, required=True,
+                        help="folder of the headline metrics (ADE / FDE per table and model)")
+    args = parser.parse_args(argv)
+    report_params = load_section(ReportParams, "report", read_params(args.params))
+    inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.segmentation_figures,
+                    args.qualitative, args.manifests, args.dvc_lock)
+    write_report(inputs, lock_params(args.dvc_lock), report_params, args.out, args.figures,
+                 args.plots, args.headline)
+
+
+if __name__ == "__main__":
+    main()

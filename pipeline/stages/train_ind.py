@@ -1,0 +1,48 @@
+"""Stage `train_ind`: everything the inD benchmark trains (paper Tables 3/4).
+
+On the `ind_windows` output: the SDD U-Net fine-tuned on labelled inD backgrounds when there are
+any, and the semantic maps of every background; Y-net (`ynet.<profile>` at inD's `ynet_resize`);
+S-GAN and PECNet at t_f = 30 and PECNet at t_f = 5 (R-PECNet's) (`pipeline.runners.ind`). Writes
+the checkpoint folder (resumable; SIGTERM / SIGINT or `runtime.max_minutes` checkpoint and exit
+143 / 130 / 75) and the training record; inD not provided: the not-provided record, at once.
+Params: `profile`, `runtime.device`, `runtime.max_minutes`, `ind_benchmark.<profile>`,
+`ynet.<profile>`, `segmentation.<profile>`, `sgan.<profile>`, `pecnet.<profile>`, `train_baseline`.
+
+    python -m pipeline.stages.train_ind --ind data/ind --segmentation-model data/segmentation/model.pt \
+        --checkpoint-dir checkpoints/ind --metrics metrics/ind_train.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from pipeline.config import read_params
+from pipeline.device import describe, select_device
+from pipeline.io import write_json
+from pipeline.preemption import Preemption, exit_when_stopped
+from pipeline.runners.ind import IndTrainSettings, train_benchmark
+
+
+@exit_when_stopped
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ind", type=Path, required=True, help="output folder of stage ind_windows")
+    parser.add_argument("--segmentation-model", type=Path, required=True,
+                        help="the SDD-trained U-Net (stage segmentation)")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True)
+    parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
+    args = parser.parse_args(argv)
+    settings = IndTrainSettings.from_params(read_params())
+    device = select_device(settings.runtime.device)
+    print(f"train_ind: on {describe(device)}")
+    with Preemption(settings.runtime.max_minutes) as preemption:
+        record = train_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir, settings,
+                                 device, preemption)
+    write_json(record, args.metrics, sort_keys=True)
+    if not record["provided"]:
+        print(f"train_ind: inD not provided: {record['reason']}")
+
+
+if __name__ == "__main__":
+    main()

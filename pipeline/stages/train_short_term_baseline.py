@@ -1,0 +1,66 @@
+"""Stage `train_short_term_baseline@<dataset>-<model>`: S-GAN or PECNet trained on one short-term
+benchmark (paper Tables 1-2).
+
+The model's `sgan` / `pecnet` settings with the epochs `short_term_models.<profile>.epochs` gives
+this benchmark; the epoch is selected on a seeded sample of `val_windows` validation windows
+(`pipeline.runners.short_term`). Writes the checkpoint folder (its `best.pt` holds the model's
+config; resumable, and SIGTERM / SIGINT or `runtime.max_minutes` checkpoint mid-epoch and exit
+143 / 130 / 75) and the training record. Params: `profile`, `runtime.device`, `runtime.max_minutes`,
+`short_term.n_past`, `short_term.n_future`, `train_baseline` (seed, threads), `<model>.<profile>`,
+`short_term_models.<profile>`: `epochs.<model>`, `val_windows`, `seed`.
+
+    python -m pipeline.stages.train_short_term_baseline --dataset eth --model pecnet \
+        --windows data/short_term --checkpoint-dir checkpoints/short_term/eth_pecnet \
+        --metrics metrics/short_term/train/eth_pecnet.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+import torch
+
+from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
+                             TrainBaselineParams, load_profile, load_section, read_params)
+from pipeline.device import describe, select_device
+from pipeline.harness.baseline_runs import model_config
+from pipeline.io import write_json
+from pipeline.preemption import Preemption, exit_when_stopped
+from pipeline.runners.short_term import benchmark_of, load_dataset, train_baseline, training_record
+
+MODELS = ("sgan", "pecnet")
+
+
+@exit_when_stopped
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dataset", required=True, choices=DATASETS)
+    parser.add_argument("--model", required=True, choices=MODELS)
+    parser.add_argument("--windows", type=Path, required=True,
+                        help="short_term_windows output folder (tables and ETH/UCY scene index)")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True)
+    parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
+    args = parser.parse_args(argv)
+    params = read_params()
+    profile = params["profile"]
+    settings = load_profile(ShortTermModelsParams, "short_term_models", params)
+    windows = load_section(ShortTermParams, "short_term", params)
+    runtime = load_section(RuntimeParams, "runtime", params)
+    device = select_device(runtime.device)
+    print(f"train_short_term_baseline: {args.model} on {describe(device)}")
+
+    bench, _ = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
+    seeds = load_section(TrainBaselineParams, "train_baseline", params)
+    torch.set_num_threads(seeds.threads)
+    config = replace(model_config(args.model, params),
+                     epochs=settings.epochs[args.model][benchmark_of(args.dataset)])
+    with Preemption(runtime.max_minutes) as preemption:
+        facts = train_baseline(args.model, bench, config, args.checkpoint_dir, seeds.seed,
+                               settings.val_windows, settings.seed, device, preemption)
+    write_json(training_record(args.dataset, args.model, profile, facts), args.metrics)
+
+
+if __name__ == "__main__":
+    main()

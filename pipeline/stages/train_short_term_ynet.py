@@ -1,0 +1,73 @@
+"""Stage `train_short_term_ynet@<dataset>`: Y-net trained on one short-term benchmark (paper Tables 1-2).
+
+`ynet.<profile>` with the short-term goal-only waypoint and the benchmark's map scale, epochs and
+learning rate from `short_term_models.<profile>` (`pipeline.runners.short_term.ynet_settings`);
+the epoch is selected on a seeded sample of `val_windows` validation windows. Writes the checkpoint
+folder (resumable; SIGTERM / SIGINT or `runtime.max_minutes` checkpoint mid-epoch and exit
+143 / 130 / 75) and the training record; a dataset outside `ynet_datasets` gets the not-run record
+(and no checkpoint folder, as before the split). Params: `profile`, `runtime.device`, `runtime.max_minutes`,
+`short_term.n_past`, `short_term.n_future`, `ynet.<profile>`, `short_term_models.<profile>`:
+`epochs.ynet`, `ynet_steps_per_epoch`, `ynet_learning_rate`, `val_windows`, `ynet_sdd` /
+`ynet_ethucy`, `ynet_datasets`, `why_subset`, `seed`.
+
+    python -m pipeline.stages.train_short_term_ynet --dataset eth --windows data/short_term \
+        --maps data/short_term/ethucy_semantic --sdd data/raw/sdd \
+        --checkpoint-dir checkpoints/short_term/eth_ynet --metrics metrics/short_term/train/eth_ynet.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
+                             load_profile, load_section, read_params)
+from pipeline.device import describe, select_device
+from pipeline.io import write_json
+from pipeline.preemption import Preemption, exit_when_stopped
+from pipeline.runners.short_term import (load_dataset, not_run_record, train_ynet, training_record,
+                                         ynet_inputs, ynet_settings)
+from pipeline.runners.ynet_training import YnetSettings
+
+MODEL = "ynet"
+
+
+@exit_when_stopped
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dataset", required=True, choices=DATASETS)
+    parser.add_argument("--windows", type=Path, required=True,
+                        help="short_term_windows output folder (tables and ETH/UCY scene index)")
+    parser.add_argument("--maps", type=Path, required=True,
+                        help="Y-net's scene maps: data/semantic_maps (sdd) or <windows>/ethucy_semantic")
+    parser.add_argument("--sdd", type=Path, help="fetched SDD root (sdd: scene sizes)")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True)
+    parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
+    args = parser.parse_args(argv)
+    params = read_params()
+    profile = params["profile"]
+    settings = load_profile(ShortTermModelsParams, "short_term_models", params)
+    if args.dataset not in settings.ynet_datasets:
+        write_json(not_run_record(args.dataset, MODEL, profile, settings), args.metrics)
+        print(f"train_short_term_ynet: Y-net not run on {args.dataset} in the {profile} profile")
+        return
+    if args.dataset == "sdd" and args.sdd is None:
+        parser.error("Y-net on sdd needs --sdd")
+    windows = load_section(ShortTermParams, "short_term", params)
+    runtime = load_section(RuntimeParams, "runtime", params)
+    device = select_device(runtime.device)
+    print(f"train_short_term_ynet: on {describe(device)}")
+
+    bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
+    scene_ids = set(bench.train.scene_id) | set(bench.val.scene_id) | set(bench.test.scene_id)
+    maps, sizes, classes = ynet_inputs(args.maps, args.sdd, scene_ids, ethucy_scenes)
+    model_settings = ynet_settings(load_profile(YnetSettings, "ynet", params), settings,
+                                   args.dataset, windows.n_future, classes)
+    with Preemption(runtime.max_minutes) as preemption:
+        facts = train_ynet(bench, maps, sizes, model_settings, windows.n_past, args.checkpoint_dir,
+                           settings.val_windows, settings.seed, device, preemption)
+    write_json(training_record(args.dataset, MODEL, profile, facts), args.metrics)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,66 @@
+"""Stage `train_ynet`: Y-net on the release's t_f = 30 train windows, the epoch selected on val.
+
+One scene per batch under rotation/flip augmentation; after every epoch a validation score
+(never the test set), a checkpoint and the best weights so far (`pipeline.runners.ynet_training`).
+Resumes after an interruption; SIGTERM / SIGINT or `runtime.max_minutes` checkpoint mid-epoch and
+exit 143 / 130 / 75. Params: `ynet.<profile>`, `profile`, `runtime.device`, `runtime.max_minutes`
+(and `windows.n_past`, passed as --n-past).
+
+    python -m pipeline.stages.train_ynet --windows data/windows/release_tf30.parquet \
+        --semantic-maps data/semantic_maps --sdd data/raw/sdd --n-past 5 \
+        --checkpoint-dir checkpoints/ynet --model data/ynet/model.pt \
+        --history reports/training/ynet_train.csv --metrics metrics/ynet_train.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from pipeline.config import RuntimeParams, load_profile, load_section, read_params
+from pipeline.data.semantic_maps import load_semantic_maps
+from pipeline.data.window_table import to_arrays
+from pipeline.device import describe, select_device
+from pipeline.io import write_json
+from pipeline.preemption import Preemption, exit_when_stopped
+from pipeline.runners.ynet_training import YnetSettings, image_sizes, scale_waypoints, train
+
+
+@exit_when_stopped
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--windows", type=Path, required=True, help="window table (parquet)")
+    parser.add_argument("--semantic-maps", type=Path, required=True)
+    parser.add_argument("--sdd", type=Path, required=True, help="fetched SDD root (scene sizes)")
+    parser.add_argument("--n-past", type=int, default=5)
+    parser.add_argument("--checkpoint-dir", type=Path, required=True)
+    parser.add_argument("--model", type=Path, required=True, help="best weights (state_dict)")
+    parser.add_argument("--history", type=Path, required=True, help="per-epoch CSV (dvc plots)")
+    parser.add_argument("--metrics", type=Path, required=True)
+    args = parser.parse_args(argv)
+    params = read_params()
+    settings = load_profile(YnetSettings, "ynet", params)
+    runtime = load_section(RuntimeParams, "runtime", params)
+    device = select_device(runtime.device)
+
+    table = pd.read_parquet(args.windows)
+    train_arrays = to_arrays(table[table["split"] == "train"], args.n_past)
+    val_arrays = to_arrays(table[table["split"] == "val"], args.n_past)
+    n_future = train_arrays.future.shape[1]
+    if n_future != 30:
+        settings.waypoints = scale_waypoints(settings.waypoints, n_future)
+    semantic_maps = load_semantic_maps(args.semantic_maps)
+    sizes = image_sizes(args.sdd, set(train_arrays.scene_id) | set(val_arrays.scene_id))
+    with Preemption(runtime.max_minutes) as preemption:
+        summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, args.n_past,
+                        args.checkpoint_dir / "last.pt", args.model, args.history, device=device,
+                        preemption=preemption)
+    print(f"train_ynet: trained on {describe(device)}")
+    summary["profile"] = params["profile"]
+    write_json(summary, args.metrics)
+
+
+if __name__ == "__main__":
+    main()

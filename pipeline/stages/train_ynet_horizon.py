@@ -1,0 +1,74 @@
+"""Stage `train_ynet_horizon@<t_f>`: Y-net trained at one prediction horizon (paper Figure 4).
+
+Trains on the horizon table's train split (the epoch selected on val), with `ynet.<profile>`'s
+settings, the epochs `ynet_horizons.<profile>.epochs` gives this horizon and the waypoints scaled
+with the horizon (`pipeline.runners.ynet_horizon`). Writes the checkpoint folder (`last.pt`,
+`best.pt`, `history.csv`; an interrupted run resumes, and SIGTERM / SIGINT or `runtime.max_minutes`
+checkpoint mid-epoch and exit 143 / 130 / 75) and the training record. A horizon the profile does
+not train gets the not-run record and an empty checkpoint folder. Params: `profile`,
+`runtime.device`, `runtime.max_minutes`, `ynet.<profile>`, `ynet_horizons.<profile>.epochs`,
+`ynet_horizons.<profile>.why_subset`, `windows.n_past`.
+
+    python -m pipeline.stages.train_ynet_horizon --horizon 10 --table data/horizon_windows/tf10.parquet \
+        --semantic-maps data/semantic_maps --sdd data/raw/sdd --checkpoint-dir checkpoints/ynet_tf10 \
+        --metrics metrics/ynet_horizons/train_tf10.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+from pipeline.config import (HorizonParams, RuntimeParams, WindowParams, load_profile, load_section,
+                             read_params)
+from pipeline.data.semantic_maps import load_semantic_maps
+from pipeline.device import describe, select_device
+from pipeline.io import write_json
+from pipeline.preemption import Preemption, exit_when_stopped
+from pipeline.runners.ynet_horizon import horizon_splits, not_run_record
+from pipeline.runners.ynet_training import YnetSettings, image_sizes, scale_waypoints, train
+
+
+@exit_when_stopped
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
+    parser.add_argument("--table", type=Path, required=True, help="horizon window table (parquet)")
+    parser.add_argument("--semantic-maps", type=Path, required=True)
+    parser.add_argument("--sdd", type=Path, required=True, help="fetched SDD root (scene sizes)")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True)
+    parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
+    args = parser.parse_args(argv)
+    params = read_params()
+    profile = params["profile"]
+    horizon_params = load_profile(HorizonParams, "ynet_horizons", params)
+    args.checkpoint_dir.mkdir(parents=True, exist_ok=True)
+    if args.horizon not in horizon_params.horizons:
+        write_json(not_run_record(args.horizon, profile, horizon_params), args.metrics)
+        print(f"train_ynet_horizon: t_f = {args.horizon} s not trained in the {profile} profile")
+        return
+
+    settings = load_profile(YnetSettings, "ynet", params)
+    n_past = load_section(WindowParams, "windows", params).n_past
+    runtime = load_section(RuntimeParams, "runtime", params)
+    device = select_device(runtime.device)
+
+    splits = horizon_splits(args.table, n_past, args.horizon)
+    epochs = {int(h): int(e) for h, e in horizon_params.epochs.items()}[args.horizon]
+    settings = replace(settings, epochs=epochs,
+                       waypoints=scale_waypoints(settings.waypoints, args.horizon))
+    semantic_maps = load_semantic_maps(args.semantic_maps)
+    scene_ids = set().union(*(arrays.scene_id for arrays in splits.values()))
+    sizes = image_sizes(args.sdd, scene_ids)
+    with Preemption(runtime.max_minutes) as preemption:
+        summary = train(splits["train"], splits["val"], semantic_maps, sizes, settings, n_past,
+                        args.checkpoint_dir / "last.pt", args.checkpoint_dir / "best.pt",
+                        args.checkpoint_dir / "history.csv", device=device, preemption=preemption)
+    print(f"train_ynet_horizon: trained on {describe(device)}")
+    write_json({"t_f": args.horizon, "profile": profile, "trained": True,
+                "waypoints": settings.waypoints, **summary}, args.metrics)
+
+
+if __name__ == "__main__":
+    main()

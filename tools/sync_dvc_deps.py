@@ -1,0 +1,70 @@
+"""Rewrite the code part of every stage's `deps` in dvc.yaml from the stage module's imports.
+
+    python tools/sync_dvc_deps.py           # rewrite dvc.yaml in place (comments kept)
+    python tools/sync_dvc_deps.py --check   # exit 1 and list the stages whose code deps differ
+
+A stage's code deps are the project files its `python -m pipeline.stages.<name>` imports, followed
+through every import inside `pipeline` and `ynet` (tests/test_dvc_deps.py checks the same closure).
+Other deps (data, manifests, templates) are kept as written, after the code.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+
+from ruamel.yaml import YAML
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from tests.test_dvc_deps import code_closure  # noqa: E402
+
+CODE_SUFFIX = ".py"
+CODE_ROOTS = ("pipeline/", "ynet/")
+
+
+def is_code(dep: str) -> bool:
+    return dep.endswith(CODE_SUFFIX) and dep.startswith(CODE_ROOTS)
+
+
+def stage_bodies(stages: dict) -> list[tuple[str, dict]]:
+    """(name, the mapping holding cmd and deps) of every stage, foreach/matrix ones included."""
+    return [(name, stage.get("do", stage)) for name, stage in stages.items()]
+
+
+def synced_deps(body: dict) -> list[str]:
+    tokens = shlex.split(" ".join(str(body["cmd"]).split()))
+    module = tokens[tokens.index("-m") + 1]
+    other = [d for d in body.get("deps", []) if not is_code(str(d))]
+    return sorted(code_closure(module)) + other
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--check", action="store_true")
+    parser.add_argument("--dvc-yaml", type=Path, default=REPO / "dvc.yaml")
+    args = parser.parse_args(argv)
+    yaml = YAML()
+    yaml.width = 4096
+    yaml.indent(mapping=2, sequence=4, offset=2)
+    document = yaml.load(args.dvc_yaml)
+    stale = []
+    for name, body in stage_bodies(document["stages"]):
+        wanted = synced_deps(body)
+        if [str(d) for d in body.get("deps", [])] != wanted:
+            stale.append(name)
+            body["deps"] = wanted
+    if args.check:
+        print("\n".join(stale) or "dvc.yaml code deps are in sync")
+        return 1 if stale else 0
+    if stale:
+        yaml.dump(document, args.dvc_yaml)
+        print(f"rewrote the deps of {len(stale)} stages: {', '.join(stale)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
