@@ -4,8 +4,7 @@ reach into them.
 (a) no module of `pipeline/stages` imports another module of `pipeline/stages`;
 (b) no module outside `pipeline/stages` imports `pipeline.stages` (or anything in it);
 (c) every module of `pipeline/stages` has a `main` function (and runs it under `__main__`);
-(d) every stage module is named as a stage of dvc.yaml (skipped while dvc.yaml still runs the old
-    flat modules).
+(d) every stage module is named as a stage of dvc.yaml, and every stage runs the module of its name.
 Each check runs on the real tree and, to show it can fail, on a deliberately bad one.
 """
 
@@ -91,10 +90,11 @@ def unnamed_stages(root: Path, dvc_yaml: Path) -> list[str]:
     return sorted(p.stem for p in stage_files(root) if p.stem not in names)
 
 
-def dvc_yaml_uses_stage_modules(dvc_yaml: Path) -> bool:
-    commands = [str(s.get("cmd", s.get("do", {}).get("cmd", "")))
-                for s in yaml.safe_load(dvc_yaml.read_text())["stages"].values()]
-    return all(f"-m {STAGES}." in " ".join(c.split()) for c in commands)
+def misnamed_commands(dvc_yaml: Path) -> list[str]:
+    """Stages whose command does not run `python -m pipeline.stages.<the stage's name>`."""
+    stages = yaml.safe_load(dvc_yaml.read_text())["stages"]
+    return sorted(name for name, s in stages.items()
+                  if f"-m {STAGES}.{name} " not in " ".join(str(s.get("do", s)["cmd"]).split()) + " ")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -114,10 +114,9 @@ def test_every_stage_module_has_a_main():
     assert without_main(REPO) == []
 
 
-def test_every_stage_module_is_a_dvc_stage():
-    if not dvc_yaml_uses_stage_modules(REPO / "dvc.yaml"):
-        pytest.skip("dvc.yaml still runs the flat modules; re-enabled once it runs pipeline.stages.*")
+def test_every_stage_module_is_a_dvc_stage_and_every_stage_runs_its_namesake():
     assert unnamed_stages(REPO, REPO / "dvc.yaml") == []
+    assert misnamed_commands(REPO / "dvc.yaml") == []
 
 
 # ---------------------------------------------------------------------------------------------
@@ -142,7 +141,8 @@ def bad_tree(tmp_path) -> Path:
     write(tmp_path, "pipeline/stages/b.py", "from . import a\n\n\ndef run():\n    a.helper()\n")
     write(tmp_path, "pipeline/stages/c.py", "from pipeline.stages.a import helper\n\n\ndef main():\n    helper()\n")
     write(tmp_path, "dvc.yaml", "stages:\n  a:\n    cmd: python -m pipeline.stages.a\n"
-                                "  b:\n    foreach: [1]\n    do:\n      cmd: python -m pipeline.stages.b\n")
+                                "  b:\n    foreach: [1]\n    do:\n      cmd: python -m pipeline.stages.b\n"
+                                "  d:\n    cmd: python -m pipeline.stages.a --x 1\n")
     return tmp_path
 
 
@@ -154,4 +154,4 @@ def test_the_checks_catch_bad_imports_and_missing_mains(bad_tree):
     assert offenders(library_to_stage(modules)) == ["pipeline.lib", "pipeline.other"]  # other: in a function
     assert without_main(bad_tree) == ["b.py", "c.py"]  # b: no main; c: main never run
     assert unnamed_stages(bad_tree, bad_tree / "dvc.yaml") == ["c"]
-    assert dvc_yaml_uses_stage_modules(bad_tree / "dvc.yaml")
+    assert misnamed_commands(bad_tree / "dvc.yaml") == ["d"]  # stage d runs module a
