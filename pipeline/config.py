@@ -558,7 +558,8 @@ class ShortTermParams:
 DATASETS = ("sdd", *FOLD_TEST_SCENES)  # sdd, then the five ETH/UCY folds
 
 
-MODELS = ("ynet", "sgan", "pecnet")
+TRAINED_BASELINES = ("sgan", "pecnet")  # the baselines with weights to learn
+MODELS = ("ynet", *TRAINED_BASELINES)
 
 
 BENCHMARKS = ("sdd", "ethucy")

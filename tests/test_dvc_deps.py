@@ -9,70 +9,15 @@ cannot be a dep of a stage it records.
 
 from __future__ import annotations
 
-import ast
 import shlex
-from functools import cache
 from pathlib import Path
 
 import pytest
 from dvc.repo import Repo
 
-REPO = Path(__file__).resolve().parents[1]
-PACKAGES = ("pipeline", "ynet")
+from tools.code_graph import REPO, code_closure
+
 NOT_A_DEP = {"dvc.lock"}  # read by `report` for provenance; a dep on it could never be up to date
-
-
-def module_path(name: str) -> Path | None:
-    """The file of project module `name` (a package's __init__.py), or None if not ours."""
-    if name.split(".")[0] not in PACKAGES:
-        return None
-    base = REPO.joinpath(*name.split("."))
-    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
-        if candidate.is_file():
-            return candidate
-    return None
-
-
-def has_code(path: Path) -> bool:
-    """False for a module that is only a docstring (an empty package marker)."""
-    body = ast.parse(path.read_text()).body
-    return any(not (isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant))
-               for node in body)
-
-
-def imported_modules(path: Path) -> set[str]:
-    """Absolute names of the modules `path` imports (and, for `from a import b`, a.b if a module)."""
-    package = ".".join(path.relative_to(REPO).with_suffix("").parts[:-1])
-    names = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            names.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:  # relative import
-                parent = package.split(".")[:len(package.split(".")) - node.level + 1]
-                base = ".".join([*parent, base] if base else parent)
-            names.add(base)
-            names.update(f"{base}.{alias.name}" for alias in node.names)
-    return names
-
-
-@cache
-def code_closure(module: str) -> frozenset[str]:
-    """Repository-relative files of `module`, its parent packages and everything they import."""
-    seen: set[Path] = set()
-    todo = [module]
-    while todo:
-        name = todo.pop()
-        parts = name.split(".")
-        for i in range(1, len(parts) + 1):  # importing a.b.c runs a/__init__ and a/b/__init__
-            path = module_path(".".join(parts[:i]))
-            if path is None or path in seen:
-                continue
-            seen.add(path)
-            todo.extend(imported_modules(path))
-    return frozenset(p.relative_to(REPO).as_posix() for p in seen
-                     if p.name != "__init__.py" or has_code(p))
 
 
 def stages():

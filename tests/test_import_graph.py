@@ -16,37 +16,15 @@ from pathlib import Path
 import pytest
 import yaml
 
-REPO = Path(__file__).resolve().parents[1]
+from tools.code_graph import REPO, imported_modules, module_name
+
 STAGES = "pipeline.stages"
-
-
-def module_name(path: Path, root: Path) -> str:
-    parts = path.relative_to(root).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-
-
-def imports(path: Path, root: Path) -> set[str]:
-    """Absolute names `path` imports: `import a.b` -> a.b; `from a import b` -> a and a.b
-    (relative imports resolved); imports inside functions count too."""
-    name = module_name(path, root)
-    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    found = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            found.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                parent = package.split(".")[:len(package.split(".")) - node.level + 1]
-                base = ".".join([*parent, base] if base else parent)
-            found.add(base)
-            found.update(f"{base}.{alias.name}" for alias in node.names)
-    return found
 
 
 def graph(root: Path) -> dict[str, set[str]]:
     """Module name -> the `pipeline` modules (and names) it imports, for every pipeline/**.py."""
-    return {module_name(path, root): {n for n in imports(path, root) if n.split(".")[0] == "pipeline"}
+    return {module_name(path, root): {n for n in imported_modules(path, root)
+                                       if n.split(".")[0] == "pipeline"}
             for path in sorted((root / "pipeline").rglob("*.py"))}
 
 

@@ -10,7 +10,7 @@ import torch
 from pipeline.config import CwsParams, EvalParams, TtstParams
 from pipeline.runners import ynet_training as train_ynet
 
-from pipeline.runners.ynet_scoring import evaluate, load_model, sampling_options
+from pipeline.runners.ynet_scoring import evaluate, evaluation_sequence, load_model, sampling_options
 from pipeline.runners.ynet_training import YnetSettings, run_fingerprint, scale_waypoints, train
 from pipeline.preemption import Preemption, StopRequested
 from pipeline.data.window_table import WindowArrays
@@ -142,6 +142,22 @@ def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
     assert first == second
     assert first["ade"]["mean"] > 0 and first["k_e"] == 3 and first["k_a"] == 2
     assert first["fde_joint"]["mean"] >= first["fde"]["mean"]
+
+
+def test_the_grid_cell_of_the_main_setting_equals_sampling_it_afresh(tmp_path):
+    """The K_a grid takes its (k_e, k_a) = main cell from the main result's first round."""
+    torch.set_num_threads(1)
+    run(tmp_path)
+    model, settings = load_model(tmp_path / "best.pt")
+    test = arrays(3, "test", 2)
+    scenes = group_by_scene(test, MAPS, SIZES, settings.resize)
+    params = EvalParams(k_e=3, k_a=1, rounds=2, ablation_rounds=0, ka_grid_k_e=[3], ka_grid_k_a=[1, 2],
+                        batch_size=2)
+    result = evaluation_sequence(model, scenes, settings, params, TtstParams(), CwsParams(), test.future)
+    for cell in result["ka_grid"]:
+        options = sampling_options(cell["k_e"], cell["k_a"], TtstParams(), CwsParams(), True, True)
+        assert cell == evaluate(model, scenes, settings, options, params, test.future, 1, "fresh")
+    assert result["ka_grid"][0]["per_round"] == result["main"]["per_round"][:1]
 
 
 @pytest.mark.parametrize("n_future, expected", [(30, [14, 29]), (60, [29, 59]), (5, [2, 4]),

@@ -4,8 +4,8 @@
     python tools/sync_dvc_deps.py --check   # exit 1 and list the stages whose code deps differ
 
 A stage's code deps are the project files its `python -m pipeline.stages.<name>` imports, followed
-through every import inside `pipeline` and `ynet` (tests/test_dvc_deps.py checks the same closure).
-Other deps (data, manifests, templates) are kept as written, after the code.
+through every import inside `pipeline` and `ynet` (`tools.code_graph`: the closure that
+tests/test_dvc_deps.py checks). Other deps (data, manifests, templates) are kept as written, after the code.
 """
 
 from __future__ import annotations
@@ -17,10 +17,9 @@ from pathlib import Path
 
 from ruamel.yaml import YAML
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tests.test_dvc_deps import code_closure  # noqa: E402
+from tools.code_graph import REPO, code_closure  # noqa: E402
 
 CODE_SUFFIX = ".py"
 CODE_ROOTS = ("pipeline/", "ynet/")

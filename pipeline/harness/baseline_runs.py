@@ -17,14 +17,16 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline.config import EvaluateBaselineParams, load_profile
+from pipeline.config import (EvaluateBaselineParams, RuntimeParams, WindowParams, load_profile,
+                             load_section)
 from pipeline.data.window_table import WindowArrays
-from pipeline.device import CPU
+from pipeline.device import CPU, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import baselines
 from pipeline.harness.baselines.common import (fit_result_from, load_checkpoint, load_windows,
                                                select_split)
 from pipeline.harness.metrics import METRIC_KEYS, summarize, window_errors
+from pipeline.io import write_json
 from pipeline.preemption import NEVER, Preemption
 
 
@@ -100,3 +102,16 @@ def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path | No
     scores = evaluate(fitted, arrays, params.k, params.rounds, params.seed, device)
     return {"model": model, "horizon": horizon, "split": params.split, "seed": params.seed,
             **scores, **training_facts(model, checkpoint_dir)}
+
+
+def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, metrics: Path,
+                  params: dict) -> None:
+    """What the stages `evaluate_baseline`, `evaluate_rpecnet` and `evaluate_constant_velocity` do:
+    `score_split` under `evaluate_baseline` (its threads), `windows.n_past` and `runtime.device` of
+    `params` (params.yaml as read), written to `metrics`."""
+    evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
+    n_past = load_section(WindowParams, "windows", params).n_past
+    torch.set_num_threads(evaluation.threads)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    print(f"evaluate_baseline {model} t_f = {horizon}: {describe(device)}", flush=True)
+    write_json(score_split(model, table, horizon, checkpoint_dir, n_past, evaluation, device), metrics)

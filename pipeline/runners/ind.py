@@ -42,12 +42,11 @@ import pandas as pd
 import torch
 
 from pipeline.config import (CwsParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams,
-                             RuntimeParams, SegmentationParams, TrainBaselineParams, TtstParams,
-                             load_profile, load_section)
+                             TRAINED_BASELINES, RuntimeParams, SegmentationParams,
+                             TrainBaselineParams, TtstParams, load_profile, load_section)
 from pipeline.data.semantic_maps import (iou_summary, predict_probabilities, predicted_labels,
                                          resize_probabilities)
 from pipeline.data.window_table import WindowArrays, to_arrays
-from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import CPU
 from pipeline.harness import baseline_runs, baselines
 from pipeline.harness.baselines.common import select_split
@@ -57,11 +56,10 @@ from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.segmentation import (downsample_pair, epoch_batches, export_model, learning_rate,
                                            pad_to_multiple, scaled_size, train_step)
 from pipeline.runners.segmentation import load_model as load_unet
-from pipeline.runners.ynet_scoring import evaluation_sequence, load_model
+from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring
 from pipeline.runners.ynet_training import YnetSettings, train
 from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
-TRAINED_BASELINES = ("sgan", "pecnet")  # trained on the t_f = 30 windows
 
 
 
@@ -312,10 +310,7 @@ def score_ynet(test: WindowArrays, maps: dict[str, np.ndarray], sizes: dict[str,
                settings: IndEvalSettings, folder: Path, device: torch.device = CPU) -> dict:
     """The best epoch in `folder` (its settings from the checkpoint) on test: the main result,
     ablation and K_a grid."""
-    model, ynet_settings = load_model(folder / "best.pt", device)
-    torch.set_num_threads(ynet_settings.threads)  # as training left them (once one process)
-    torch.set_flush_denormal(True)
-    scenes = group_by_scene(test, maps, sizes, ynet_settings.resize, device)
+    model, ynet_settings, scenes = load_for_scoring(folder / "best.pt", test, maps, sizes, device)
     params = settings.eval
     return {"n_windows": len(test), "rounds": params.rounds, "resize": ynet_settings.resize,
             **evaluation_sequence(model, scenes, ynet_settings, params, settings.ttst, settings.cws,

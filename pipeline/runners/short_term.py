@@ -55,13 +55,13 @@ from pipeline.data.homography import pixels_to_metres
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.short_term import EthUcySceneInfo, load_ethucy_scenes
 from pipeline.data.window_table import WindowArrays, to_arrays
-from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import CPU, generator
 from pipeline.harness import baselines
 from pipeline.harness.baselines.common import select_split, subset
 from pipeline.harness.metrics import METRIC_KEYS, summarize, window_errors
 from pipeline.preemption import NEVER, Preemption
-from pipeline.runners.ynet_scoring import load_model, predict_scenes, sampling_options, summarize_rounds
+from pipeline.runners.ynet_scoring import (load_for_scoring, predict_scenes, sampling_options,
+                                          summarize_rounds)
 from pipeline.runners.ynet_training import YnetSettings, image_sizes, train
 
 # File names inside the `short_term_windows` output folder (pipeline.data.short_term.build).
@@ -238,10 +238,8 @@ def score_ynet(bench: Benchmark, semantic_maps, sizes, folder: Path, params: Sho
     """Score the best epoch in `folder` at every K_e of `ks`: (scores per K, seconds, the model's
     reported settings). Reads only the scoring keys of `params` (temperature, rel_threshold, the
     K lists, rounds, seed, eval_batch_size, eval_chunk_size, bf16)."""
-    model, loaded = load_model(folder / "best.pt", device)
-    torch.set_num_threads(loaded.threads)
-    torch.set_flush_denormal(True)  # as training leaves it (the two once ran in one process)
-    scenes = group_by_scene(bench.test, semantic_maps, sizes, loaded.resize, device)
+    model, loaded, scenes = load_for_scoring(folder / "best.pt", bench.test, semantic_maps, sizes,
+                                             device)
     ttst = TtstParams(temperature=params.temperature, rel_threshold=params.rel_threshold)
     eval_params = params.eval_params()
     start, results = time.perf_counter(), {}

@@ -22,7 +22,9 @@ import torch
 from tqdm import tqdm
 
 from pipeline.config import CwsParams, EvalParams, TtstParams
-from pipeline.data.ynet_data import SceneWindows, model_input, padded_semantic, window_inputs
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import (SceneWindows, group_by_scene, model_input, padded_semantic,
+                                    window_inputs)
 from pipeline.device import CPU, conv_layout, generator, module_device
 from pipeline.harness.metrics import window_errors
 from pipeline.runners.ynet_training import YnetSettings
@@ -49,6 +51,18 @@ def load_model(path: Path, device: torch.device = CPU) -> tuple[YNet, YnetSettin
     model.eval()
     return conv_layout(model, device), YnetSettings(**saved["settings"])
 
+
+
+def load_for_scoring(path: Path, test: WindowArrays, semantic_maps: dict[str, np.ndarray],
+                     sizes: dict[str, tuple[int, int]], device: torch.device = CPU
+                     ) -> tuple[YNet, YnetSettings, list[SceneWindows]]:
+    """The checkpoint at `path` ready to score `test`: the model on `device`, torch's threads as its
+    training used and denormals flushed as training leaves them (the numbers of a run that trained
+    and scored in one process), and the windows grouped by scene at the model's resize."""
+    model, settings = load_model(path, device)
+    torch.set_num_threads(settings.threads)
+    torch.set_flush_denormal(True)
+    return model, settings, group_by_scene(test, semantic_maps, sizes, settings.resize, device)
 
 def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
                    options: SamplingOptions, seed: int, params: EvalParams,
@@ -92,7 +106,8 @@ def summarize_rounds(rounds: list[dict[str, float]]) -> dict[str, dict[str, floa
     return result
 
 
-def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> dict:
+def round_scores(model, scenes, settings, options, params, truth, rounds, desc) -> list[dict[str, float]]:
+    """ADE / FDE (independent and joint minima) of each seeded round r (seed `params.seed + r`)."""
     scores = []
     for r in range(rounds):
         paths, goals = predict_scenes(model, scenes, settings, options, params.seed + r, params,
@@ -101,8 +116,18 @@ def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> d
         scores.append({"ade": float(errors.ade.mean()), "fde": float(errors.fde.mean()),
                        "ade_joint": float(errors.ade.mean()),
                        "fde_joint": float(errors.fde_joint.mean())})
-    return {**summarize_rounds(scores), "k_e": options.K_e, "k_a": options.K_a, "rounds": rounds,
-            "per_round": scores}
+    return scores
+
+
+def rounds_result(scores: list[dict[str, float]], options: SamplingOptions) -> dict:
+    """The metrics layout of one sampling setting: summary over rounds, K_e, K_a, each round."""
+    return {**summarize_rounds(scores), "k_e": options.K_e, "k_a": options.K_a,
+            "rounds": len(scores), "per_round": scores}
+
+
+def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> dict:
+    return rounds_result(round_scores(model, scenes, settings, options, params, truth, rounds, desc),
+                         options)
 
 
 @torch.inference_mode()
@@ -141,7 +166,9 @@ def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetS
 
     main: TTST + CWS at (`k_e`, `k_a`) over `params.rounds` rounds. With `extras`: the ablation
     (`ablation_rounds` rounds of no TTST no CWS and CWS only, beside the main result; skipped at 0
-    rounds) and the K_e x K_a grid (one round per cell; skipped when `ka_grid_k_e` is empty).
+    rounds) and the K_e x K_a grid (one round per cell, seed `params.seed`; skipped when
+    `ka_grid_k_e` is empty). The grid cell of the main setting is the main result's first round,
+    taken from it rather than sampled again (same seed, same options: the same numbers).
     `label` prefixes the progress bars; `after_main(partial result)` runs once the main result is in.
     """
     start = time.perf_counter()
@@ -149,6 +176,13 @@ def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetS
     def run(k_e: int, k_a: int, use_ttst: bool, use_cws: bool, rounds: int, desc: str) -> dict:
         options = sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
         return evaluate(model, scenes, settings, options, params, truth, rounds, f"{label}{desc}")
+
+    def grid_cell(k_e: int, k_a: int) -> dict:
+        """One round; the main setting's cell is the main result's first round (same seed)."""
+        if (k_e, k_a) == (params.k_e, params.k_a):
+            return rounds_result(result["main"]["per_round"][:1],
+                                 sampling_options(k_e, k_a, ttst, cws, True, True))
+        return run(k_e, k_a, True, True, 1, f"K_e={k_e} K_a={k_a}")
 
     result = {"main": run(params.k_e, params.k_a, True, True, params.rounds, "TTST+CWS")}
     result["main_seconds"] = time.perf_counter() - start
@@ -160,8 +194,8 @@ def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetS
             result["ablation"][name] = run(params.k_e, params.k_a, use_ttst, use_cws,
                                            params.ablation_rounds, name)
     if extras and params.ka_grid_k_e:
-        result["ka_grid"] = [run(k_e, k_a, True, True, 1, f"K_e={k_e} K_a={k_a}")
-                             for k_e in params.ka_grid_k_e for k_a in params.ka_grid_k_a]
+        result["ka_grid"] = [grid_cell(k_e, k_a) for k_e in params.ka_grid_k_e
+                             for k_a in params.ka_grid_k_a]
     result["eval_seconds"] = time.perf_counter() - start
     return result
 

@@ -18,14 +18,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import torch
-
-from pipeline.config import (EvaluateBaselineParams, RuntimeParams, WindowParams, load_section,
-                             read_params)
-from pipeline.device import describe, select_device
+from pipeline.config import read_params
 from pipeline.harness import baselines
-from pipeline.harness.baseline_runs import score_split
-from pipeline.io import write_json
+from pipeline.harness.baseline_runs import score_to_file
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -40,15 +35,7 @@ def main(argv: list[str] | None = None) -> None:
     needs_checkpoint = args.model != "constant_velocity"
     if needs_checkpoint != (args.checkpoint_dir is not None):
         parser.error(f"--checkpoint-dir is {'required' if needs_checkpoint else 'not taken'} for {args.model}")
-    all_params = read_params()
-    params = load_section(EvaluateBaselineParams, "evaluate_baseline", all_params)
-    n_past = load_section(WindowParams, "windows", all_params).n_past
-    runtime = load_section(RuntimeParams, "runtime", all_params)
-    torch.set_num_threads(params.threads)
-    device = select_device(runtime.device)
-    print(f"evaluate_baseline {args.model} t_f = {args.horizon}: {describe(device)}", flush=True)
-    write_json(score_split(args.model, args.table, args.horizon, args.checkpoint_dir, n_past, params,
-                           device), args.metrics)
+    score_to_file(args.model, args.table, args.horizon, args.checkpoint_dir, args.metrics, read_params())
 
 
 if __name__ == "__main__":

@@ -12,13 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import torch
-
-from pipeline.config import (EvaluateBaselineParams, RuntimeParams, WindowParams, load_section,
-                             read_params)
-from pipeline.device import describe, select_device
-from pipeline.harness.baseline_runs import score_split
-from pipeline.io import write_json
+from pipeline.config import read_params
+from pipeline.harness.baseline_runs import score_to_file
 
 MODEL = "rpecnet"
 
@@ -30,15 +25,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoint-dir", type=Path, required=True, help="the t_f = 5 PECNet")
     parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
     args = parser.parse_args(argv)
-    all_params = read_params()
-    params = load_section(EvaluateBaselineParams, "evaluate_baseline", all_params)
-    n_past = load_section(WindowParams, "windows", all_params).n_past
-    runtime = load_section(RuntimeParams, "runtime", all_params)
-    torch.set_num_threads(params.threads)
-    device = select_device(runtime.device)
-    print(f"evaluate_baseline {MODEL} t_f = {args.horizon}: {describe(device)}", flush=True)
-    write_json(score_split(MODEL, args.table, args.horizon, args.checkpoint_dir, n_past, params,
-                           device), args.metrics)
+    score_to_file(MODEL, args.table, args.horizon, args.checkpoint_dir, args.metrics, read_params())
 
 
 if __name__ == "__main__":

@@ -21,19 +21,18 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
-                             TrainBaselineParams, load_profile, load_section, read_params)
+from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTermModelsParams,
+                             ShortTermParams, TrainBaselineParams, load_profile, load_section,
+                             read_params)
 from pipeline.device import describe, select_device
 from pipeline.io import write_json
 from pipeline.runners.short_term import load_dataset, run_record, score_baseline
-
-MODELS = ("sgan", "pecnet")
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, choices=DATASETS)
-    parser.add_argument("--model", required=True, choices=MODELS)
+    parser.add_argument("--model", required=True, choices=TRAINED_BASELINES)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--checkpoint-dir", type=Path, required=True,

@@ -18,16 +18,14 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-import torch
 
 from pipeline.config import (CwsParams, EvalParams, RuntimeParams, TtstParams, load_profile,
                              load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
-from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import describe, select_device
 from pipeline.io import write_json, write_npz
-from pipeline.runners.ynet_scoring import evaluation_sequence, load_model, qualitative_arrays
+from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring, qualitative_arrays
 from pipeline.runners.ynet_training import image_sizes
 
 
@@ -48,15 +46,11 @@ def main(argv: list[str] | None = None) -> None:
     eval_params = load_profile(EvalParams, "eval", params)
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
 
-    model, settings = load_model(args.model, device)
-    torch.set_num_threads(settings.threads)
     print(f"evaluate_ynet: on {describe(device)}")
-    torch.set_flush_denormal(True)
     table = pd.read_parquet(args.windows)
     test = to_arrays(table[table["split"] == "test"], args.n_past)
-    sizes = image_sizes(args.sdd, set(test.scene_id))
-    scenes = group_by_scene(test, load_semantic_maps(args.semantic_maps), sizes, settings.resize,
-                            device)
+    model, settings, scenes = load_for_scoring(args.model, test, load_semantic_maps(args.semantic_maps),
+                                               image_sizes(args.sdd, set(test.scene_id)), device)
 
     def after_main(result: dict) -> None:
         result["seconds_per_window"] = result["main_seconds"] / (len(test) * eval_params.rounds)

@@ -21,16 +21,14 @@ import json
 import time
 from pathlib import Path
 
-import torch
 
 from pipeline.config import (CwsParams, EvalParams, HorizonParams, RuntimeParams, TtstParams,
                              WindowParams, load_profile, load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
-from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import describe, select_device
 from pipeline.io import write_json
 from pipeline.runners.ynet_horizon import horizon_splits, training_summary
-from pipeline.runners.ynet_scoring import evaluate, load_model, sampling_options
+from pipeline.runners.ynet_scoring import evaluate, load_for_scoring, sampling_options
 from pipeline.runners.ynet_training import image_sizes
 
 
@@ -59,13 +57,10 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
 
     test = horizon_splits(args.table, n_past, args.horizon)["test"]
-    model, settings = load_model(args.checkpoint_dir / "best.pt", device)
     print(f"evaluate_ynet_horizon: scoring on {describe(device)}")
-    torch.set_num_threads(settings.threads)
-    torch.set_flush_denormal(True)  # as training left it when both ran in one process
-    sizes = image_sizes(args.sdd, set(test.scene_id))
-    scenes = group_by_scene(test, load_semantic_maps(args.semantic_maps), sizes, settings.resize,
-                            device)
+    model, settings, scenes = load_for_scoring(args.checkpoint_dir / "best.pt", test,
+                                               load_semantic_maps(args.semantic_maps),
+                                               image_sizes(args.sdd, set(test.scene_id)), device)
     options = sampling_options(eval_params.k_e, 1, ttst, cws, True, True)
     start = time.perf_counter()
     scores = evaluate(model, scenes, settings, options, eval_params, test.future, rounds,

@@ -22,22 +22,21 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
-                             TrainBaselineParams, load_profile, load_section, read_params)
+from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTermModelsParams,
+                             ShortTermParams, TrainBaselineParams, load_profile, load_section,
+                             read_params)
 from pipeline.device import describe, select_device
 from pipeline.harness.baseline_runs import model_config
 from pipeline.io import write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import benchmark_of, load_dataset, train_baseline, training_record
 
-MODELS = ("sgan", "pecnet")
-
 
 @exit_when_stopped
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, choices=DATASETS)
-    parser.add_argument("--model", required=True, choices=MODELS)
+    parser.add_argument("--model", required=True, choices=TRAINED_BASELINES)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--checkpoint-dir", type=Path, required=True)
