@@ -269,9 +269,9 @@ def test_stages_train_and_evaluate(tmp_path, monkeypatch):
                                 "--metrics", out, *extra])
         scores = json.loads((tmp_path / out).read_text())
         assert scores["k"] == 3 and scores["n_windows"] == 3 and scores["rounds"] == 2
-        assert scores["horizon"] == int(horizon) and scores["fde_joint"] >= scores["fde"]
+        assert scores["horizon"] == int(horizon) and scores["fde_joint"]["mean"] >= scores["fde"]["mean"]
         assert len(scores["per_round"]) == 2 and "train_seconds" in scores
-    assert scores["ade"] < 1e-6  # constant velocity on straight tracks
+    assert scores["ade"]["mean"] < 1e-6  # constant velocity on straight tracks
     with pytest.raises(ValueError, match="horizon"):  # a table of another horizon
         train_baseline.main(["--model", "sgan", "--horizon", "5", "--table", "tf7.parquet",
                              "--checkpoint-dir", "ck/x", "--metrics", "m/x.json"])

@@ -386,7 +386,7 @@ def test_benchmark_smoke_on_the_fixture_with_labels(tmp_path):
     assert [(row["k_e"], row["k_a"]) for row in result["ka_grid"]] == [(3, 2)]
     assert set(result["baselines"]) == {"sgan", "pecnet", "rpecnet", "constant_velocity"}
     for model, scores in result["baselines"].items():
-        assert scores["horizon"] == 30 and scores["n_windows"] == 2 and np.isfinite(scores["ade_std"])
+        assert scores["horizon"] == 30 and scores["n_windows"] == 2 and np.isfinite(scores["ade"]["std"])
     assert result["baselines"]["rpecnet"]["trained_horizon"] == 5
     semantic = result["semantic"]
     assert semantic["source"] == "finetuned" and semantic["train_scenes"] == ["ind_loc1_rec07"]

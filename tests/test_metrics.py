@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.harness.metrics import ade_fde, goal_errors, step_errors, summarize, window_errors
+from pipeline.harness.metrics import (METRIC_KEYS, ade_fde, goal_errors, seeded_rounds, step_errors,
+                                      summarize, window_errors)
 
 # Window 0: sample 0 is best on ADE (errors 0, 4 -> ADE 2, FDE 4), sample 1 best on FDE (3, 3 ->
 # ADE 3, FDE 3): the independent minima (2, 3) mix samples, the joint FDE is 4.
@@ -81,3 +82,29 @@ def test_empty_input_gives_nan_means():
 def test_mismatched_shapes_fail(pred, truth, goals):
     with pytest.raises(ValueError):
         window_errors(pred, truth, goals)
+
+
+def test_seeded_rounds_seed_each_round_and_summarize_over_them():
+    seen = []
+
+    def score_round(seed: int):
+        seen.append(seed)
+        return window_errors(PRED + (seed - 10), TRUTH) if seed == 11 else window_errors(PRED, TRUTH)
+
+    record = seeded_rounds(score_round, rounds=3, seed=10)
+    assert seen == [10, 11, 12]
+    exact = ade_fde(PRED, TRUTH)
+    shifted = ade_fde(PRED + 1, TRUTH)
+    assert record["rounds"] == 3 and len(record["per_round"]) == 3
+    assert record["per_round"][0] == {key: exact[key] for key in METRIC_KEYS}
+    ades = [exact["ade"], shifted["ade"], exact["ade"]]
+    assert record["ade"] == {"mean": pytest.approx(np.mean(ades)), "std": pytest.approx(np.std(ades)),
+                             "min": min(ades), "max": max(ades)}
+    assert set(record) == {*METRIC_KEYS, "rounds", "per_round"}
+
+
+def test_one_round_has_zero_spread_and_no_round_is_an_error():
+    record = seeded_rounds(lambda seed: window_errors(PRED, TRUTH), rounds=1, seed=0)
+    assert record["fde"]["std"] == 0.0 and record["fde"]["mean"] == ade_fde(PRED, TRUTH)["fde"]
+    with pytest.raises(ValueError, match="rounds"):
+        seeded_rounds(lambda seed: window_errors(PRED, TRUTH), rounds=0, seed=0)

@@ -48,8 +48,8 @@ def four(ade: float, fde: float) -> dict:
 
 def baseline(model: str, t_f: int, ade: float) -> dict:
     return {"model": model, "t_f": t_f, "k": 20, "n_windows": 300, "rounds": 3,
-            "ade": ade, "ade_std": 0.7, "fde": 2.1 * ade, "fde_std": 1.3,
-            "ade_joint": ade + 1.25, "fde_joint": 2.1 * ade + 3.5, "train_seconds": 61.0 * t_f}
+            "ade": stat(ade, 0.7), "fde": stat(2.1 * ade, 1.3), "ade_joint": stat(ade + 1.25, 0.7),
+            "fde_joint": stat(2.1 * ade + 3.5, 1.5), "train_seconds": 61.0 * t_f}
 
 
 def data_metrics() -> dict[str, object]:
@@ -83,7 +83,8 @@ def model_metrics() -> dict[str, object]:
             "ka_grid": [{"k_e": k_e, "k_a": k_a, "ade": stat(60.0 - k_e / 2 - k_a, 0.3),
                          "fde": stat(80.0 - k_e / 2, 0.6)} for k_e in (5, 20) for k_a in (1, 2, 5)],
             "eval_seconds": 1500.0, "train_seconds": 36000.0},
-        "baselines/pecnet_ka.json": [{"k_a": k_a, "k": 20 * k_a, "ade": 75.5 - k_a, "fde": 120.25}
+        "baselines/pecnet_ka.json": [{"k_a": k_a, "k": 20 * k_a, "ade": stat(75.5 - k_a, 0.2),
+                                      "fde": stat(120.25, 0.5)}
                                      for k_a in (1, 2, 5)],
         "segmentation.json": {"miou": 0.6125, "iou": {"pavement": 0.75, "road": 0.5,
                                                                  "structure": 0.625, "terrain": 0.4375,

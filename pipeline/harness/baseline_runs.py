@@ -14,7 +14,6 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import numpy as np
 import torch
 
 from pipeline.config import (EvaluateBaselineParams, RuntimeParams, WindowParams, load_profile,
@@ -25,7 +24,7 @@ from pipeline.device import generator as seeded_generator
 from pipeline.harness import baselines
 from pipeline.harness.baselines.common import (fit_result_from, load_checkpoint, load_windows,
                                                select_split)
-from pipeline.harness.metrics import METRIC_KEYS, summarize, window_errors
+from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.io import write_json
 from pipeline.preemption import NEVER, Preemption
 
@@ -55,18 +54,19 @@ def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: 
 
 
 def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device: torch.device = CPU) -> dict:
-    """Mean and std over rounds of the shared metric's summary, plus each round's summary; round r
-    samples from a generator on `device` (the model's) seeded with seed + r."""
-    per_round = []
+    """`seeded_rounds` of best-of-`k` errors (round r samples from a generator on `device`, the
+    model's, seeded with seed + r), with K, the window count and the time taken."""
     t0 = time.perf_counter()
-    for r in range(rounds):
-        pred = model.predict(arrays, k, seeded_generator(device, seed + r))  # (N, K, n_f, 2)
-        per_round.append(summarize(window_errors(pred, arrays.future)))
+
+    def score_round(round_seed: int):
+        pred = model.predict(arrays, k, seeded_generator(device, round_seed))  # (N, K, n_f, 2)
+        return window_errors(pred, arrays.future)
+
+    scored = seeded_rounds(score_round, rounds, seed)
     seconds = time.perf_counter() - t0
-    out = {key: float(np.mean([r[key] for r in per_round])) for key in METRIC_KEYS}
-    out |= {f"{key}_std": float(np.std([r[key] for r in per_round])) for key in METRIC_KEYS}
-    return {**out, "k": k, "n_windows": len(arrays), "rounds": rounds,
-            "eval_seconds": seconds, "eval_seconds_per_round": seconds / rounds, "per_round": per_round}
+    per_round = scored.pop("per_round")
+    return {**scored, "k": k, "n_windows": len(arrays), "eval_seconds": seconds,
+            "eval_seconds_per_round": seconds / rounds, "per_round": per_round}
 
 
 def training_facts(model: str, checkpoint_dir: Path | None) -> dict:

@@ -1,4 +1,5 @@
-"""The one metric every model (baselines and Y-net) is scored with: best-of-K ADE and FDE in pixels.
+"""The one metric every model (baselines and Y-net) is scored with: best-of-K ADE and FDE in pixels,
+and the one summary over seeded rounds (`seeded_rounds`) every metrics file uses.
 
 Inputs are in original image pixels (the window table's coordinates), as numpy arrays or torch
 tensors; everything is computed in float64 numpy.
@@ -15,6 +16,7 @@ tensors; everything is computed in float64 numpy.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -112,3 +114,39 @@ def summarize(errors: WindowErrors) -> dict[str, float | int]:
 def ade_fde(pred: Any, truth: Any, goals: Any | None = None) -> dict[str, float | int]:
     """Shortcut: `summarize(window_errors(pred, truth, goals))`."""
     return summarize(window_errors(pred, truth, goals))
+
+
+# ---------------------------------------------------------------------------------------------
+# Seeded rounds: the one way a benchmark turns repeated sampling into a number and its spread
+
+
+def round_scores(errors: WindowErrors) -> dict[str, float]:
+    """One round's means over windows of the four `METRIC_KEYS`."""
+    summary = summarize(errors)
+    return {key: summary[key] for key in METRIC_KEYS}
+
+
+def summarize_rounds(per_round: list[dict[str, float]]) -> dict[str, dict[str, float]]:
+    """{metric: {mean, std, min, max}} over rounds (population std: 0 for one round)."""
+    if not per_round:
+        raise ValueError("no rounds to summarize")
+    result = {}
+    for key in METRIC_KEYS:
+        values = np.array([r[key] for r in per_round], dtype=np.float64)
+        result[key] = {"mean": float(values.mean()), "std": float(values.std()),
+                       "min": float(values.min()), "max": float(values.max())}
+    return result
+
+
+def rounds_record(per_round: list[dict[str, float]]) -> dict:
+    """The metrics layout every benchmark writes for one setting scored over seeded rounds:
+    {"ade": {"mean", "std", "min", "max"}, "fde", "ade_joint", "fde_joint", "rounds", "per_round"}."""
+    return {**summarize_rounds(per_round), "rounds": len(per_round), "per_round": list(per_round)}
+
+
+def seeded_rounds(score_round: Callable[[int], WindowErrors], rounds: int, seed: int) -> dict:
+    """Score `rounds` seeded rounds, round r with seed `seed + r`; `score_round(seed)` samples the
+    model once over the test set and returns its `WindowErrors`. Returns `rounds_record`."""
+    if rounds < 1:
+        raise ValueError(f"rounds must be >= 1, got {rounds}")
+    return rounds_record([round_scores(score_round(seed + r)) for r in range(rounds)])

@@ -17,14 +17,16 @@ Metrics read (paths relative to `--metrics`; a record {"status": ..., "reason": 
 results is shown as its reason):
 - `ynet_eval.json`: {"profile", "t_f", "rounds", "main": {"ade": {"mean", "std"}, "fde", "ade_joint",
   "fde_joint"}, "ablation": {"none"|"cws"|"ttst_cws": {...}}, "ka_grid": [{"k_e", "k_a", "ade", "fde"}]}
-- `ynet_horizons/tf<H>.json`: {"main": {...}} or {"not_run_reason": "..."} (t_f = 30: ynet_eval.json); `baselines/<model>_tf<H>.json`: {"ade", "ade_std",
-  "fde", ..., "rounds", "k", "t_f" or "horizon"}; `baselines/pecnet_ka.json`: [{"k_a", "k", "ade", "fde"}]
+- `ynet_horizons/tf<H>.json`: {"main": {...}} or {"not_run_reason": "..."} (t_f = 30: ynet_eval.json);
+  `baselines/<model>_tf<H>.json`: {"ade": {"mean", "std"}, "fde", ..., "rounds", "k", "horizon"};
+  `baselines/pecnet_ka.json`: [{"k_a", "k", "ade": {"mean", "std"}, "fde"}]
 - `short_term/sdd.json`: {"rounds", "models": {<model>: {"k20"|"k5": {"ade": {"mean", "std"}, "fde"}}}}
 - `short_term/ethucy_<scene>.json`: {"rounds", "models": {<model>: {"ade": {...}, "fde": {...}}}}
 - `ind_benchmark.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
 - `segmentation.json`: {"miou", "iou": {class: iou}}; the data files `windows.json`,
   `data_audit.json`, `horizon_windows.json`, `chain_bias.json`.
-A value is a number, {"mean", "std"[, "rounds"]}, or a number with a sibling "<key>_std".
+A value is a number (measured once) or {"mean", "std", ...} over seeded rounds
+(`pipeline.harness.metrics.seeded_rounds`, the one layout every scoring stage writes).
 
 The stage (`pipeline.stages.report`) calls `write_report`.
 """
@@ -130,14 +132,12 @@ def is_number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def as_measured(node: Any, parent: Mapping | None, key: str, rounds: Any, source: str,
-                note: str = "") -> Measured | Absent:
-    """A metric node -> `Measured`: a number (spread in sibling `<key>_std`) or {"mean", "std"}."""
+def as_measured(node: Any, rounds: Any, source: str, note: str = "") -> Measured | Absent:
+    """A metric node -> `Measured`: a number (no spread) or {"mean", "std"} over rounds."""
     if isinstance(node, dict):
         mean, std, rounds = node.get("mean"), node.get("std"), node.get("rounds", rounds)
     else:
-        mean = node
-        std = parent.get(f"{key}_std") if isinstance(parent, Mapping) else None
+        mean, std = node, None
     if not is_number(mean):
         return Absent(f"{source} is not a finite number ({mean!r})", "invalid")
     return Measured(float(mean), float(std) if is_number(std) else None,
@@ -170,15 +170,15 @@ def lookup(store: MetricsStore, rel: str, path: tuple[str, ...], t_f: int | None
     mismatch = horizon_mismatch(store, rel, record, t_f)
     if mismatch:
         return mismatch
-    node, parent, rounds = record, None, None
+    node, rounds = record, None
     for key in path:
         if isinstance(node, dict) and isinstance(node.get("not_run_reason"), str):
             return Absent(node["not_run_reason"], "status")  # a stage (or one model in it) said why
         if not isinstance(node, dict) or key not in node:
             return Absent(f"{store.where(rel)} has no {'.'.join(path)}", "invalid")
         rounds = node.get("rounds", rounds)  # the innermost count applies (an ablation may differ)
-        parent, node = node, node[key]
-    return as_measured(node, parent, path[-1], rounds, f"{store.where(rel)}: {'.'.join(path)}",
+        node = node[key]
+    return as_measured(node, rounds, f"{store.where(rel)}: {'.'.join(path)}",
                        k_note(record, k))
 
 
@@ -198,7 +198,7 @@ def lookup_grid(store: MetricsStore, rel: str, grid: str, match: Mapping[str, in
     for row in rows:
         if isinstance(row, dict) and all(row.get(key) == value for key, value in match.items()):
             rounds = row.get("rounds", record.get("rounds") if isinstance(record, dict) else None)
-            return as_measured(row.get(metric), row, metric, rounds,
+            return as_measured(row.get(metric), rounds,
                                f"{store.where(rel)}: {grid}[{wanted}].{metric}")
     return Absent(f"{store.where(rel)} has no {grid} entry with {wanted}", "invalid")
 
@@ -541,7 +541,7 @@ def pecnet_ka_series(store: MetricsStore) -> Series:
         if isinstance(row, dict) and is_number(row.get("k_a")):
             note = "" if row.get("k") in (None, 20 * row["k_a"]) else f"K = {row['k']}, not 20 K_a"
             source = f"{store.where(rel)}: k_a = {row['k_a']}"
-            value = as_measured(row.get("ade"), row, "ade", row.get("rounds"), source, note)
+            value = as_measured(row.get("ade"), row.get("rounds"), source, note)
             found.append((int(row["k_a"]), value))
     return split_points(key, label, sorted(found, key=lambda p: p[0]))
 
@@ -779,7 +779,7 @@ def segmentation_scores(store: MetricsStore) -> dict[str, Any]:
     where = store.where("segmentation.json")
     miou = lookup(store, "segmentation.json", ("miou",))
     per_class = record.get("iou", record.get("per_class_iou"))
-    classes = ([(name, as_measured(v, per_class, name, record.get("rounds"),
+    classes = ([(name, as_measured(v, record.get("rounds"),
                                    f"{where}: per_class_iou.{name}"))
                 for name, v in per_class.items()] if isinstance(per_class, dict) else [])
     extra = [(k, v) for k, v in record.items()

@@ -58,10 +58,9 @@ from pipeline.data.window_table import WindowArrays, to_arrays
 from pipeline.device import CPU, generator
 from pipeline.harness import baselines
 from pipeline.harness.baselines.common import select_split, subset
-from pipeline.harness.metrics import METRIC_KEYS, summarize, window_errors
+from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.preemption import NEVER, Preemption
-from pipeline.runners.ynet_scoring import (load_for_scoring, predict_scenes, sampling_options,
-                                          summarize_rounds)
+from pipeline.runners.ynet_scoring import load_for_scoring, predict_scenes, sampling_options
 from pipeline.runners.ynet_training import YnetSettings, image_sizes, train
 
 # File names inside the `short_term_windows` output folder (pipeline.data.short_term.build).
@@ -174,14 +173,12 @@ def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None]], bench: 
 
     sample(seed) -> (paths (N, K, n_f, 2), goals (N, K, 2) or None) in original pixels.
     """
-    per_round = []
-    for r in range(rounds):
-        paths, goals = sample(seed + r)
-        errors = window_errors(bench.to_unit(paths), bench.truth,
-                               None if goals is None else bench.to_unit(goals))
-        per_round.append({key: value for key, value in summarize(errors).items()
-                          if key in METRIC_KEYS})
-    return {**summarize_rounds(per_round), "rounds": rounds, "per_round": per_round}
+    def score_round(round_seed: int):
+        paths, goals = sample(round_seed)
+        return window_errors(bench.to_unit(paths), bench.truth,
+                             None if goals is None else bench.to_unit(goals))
+
+    return seeded_rounds(score_round, rounds, seed)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -26,7 +26,7 @@ from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import (SceneWindows, group_by_scene, model_input, padded_semantic,
                                     window_inputs)
 from pipeline.device import CPU, conv_layout, generator, module_device
-from pipeline.harness.metrics import window_errors
+from pipeline.harness.metrics import seeded_rounds, summarize_rounds, window_errors
 from pipeline.runners.ynet_training import YnetSettings
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
@@ -96,38 +96,20 @@ def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettin
     return paths, goals
 
 
-def summarize_rounds(rounds: list[dict[str, float]]) -> dict[str, dict[str, float]]:
-    """{metric: {mean, std, min, max}} over rounds (std = 0 for one round)."""
-    result = {}
-    for key in ("ade", "fde", "ade_joint", "fde_joint"):
-        values = np.array([r[key] for r in rounds])
-        result[key] = {"mean": float(values.mean()), "std": float(values.std()),
-                       "min": float(values.min()), "max": float(values.max())}
-    return result
-
-
-def round_scores(model, scenes, settings, options, params, truth, rounds, desc) -> list[dict[str, float]]:
-    """ADE / FDE (independent and joint minima) of each seeded round r (seed `params.seed + r`)."""
-    scores = []
-    for r in range(rounds):
-        paths, goals = predict_scenes(model, scenes, settings, options, params.seed + r, params,
-                                      len(truth), f"{desc} round {r + 1}/{rounds}")
-        errors = window_errors(paths, truth, goals)
-        scores.append({"ade": float(errors.ade.mean()), "fde": float(errors.fde.mean()),
-                       "ade_joint": float(errors.ade.mean()),
-                       "fde_joint": float(errors.fde_joint.mean())})
-    return scores
-
-
-def rounds_result(scores: list[dict[str, float]], options: SamplingOptions) -> dict:
-    """The metrics layout of one sampling setting: summary over rounds, K_e, K_a, each round."""
-    return {**summarize_rounds(scores), "k_e": options.K_e, "k_a": options.K_a,
-            "rounds": len(scores), "per_round": scores}
+def rounds_result(per_round: list[dict[str, float]], options: SamplingOptions) -> dict:
+    """The metrics layout of one sampling setting: `rounds_record` with its K_e and K_a."""
+    return {**summarize_rounds(per_round), "k_e": options.K_e, "k_a": options.K_a,
+            "rounds": len(per_round), "per_round": per_round}
 
 
 def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> dict:
-    return rounds_result(round_scores(model, scenes, settings, options, params, truth, rounds, desc),
-                         options)
+    """`options` scored over seeded rounds (seed `params.seed + r`), in the `rounds_result` layout."""
+    def score_round(seed: int):
+        paths, goals = predict_scenes(model, scenes, settings, options, seed, params, len(truth),
+                                      f"{desc} round {seed - params.seed + 1}/{rounds}")
+        return window_errors(paths, truth, goals)
+
+    return rounds_result(seeded_rounds(score_round, rounds, params.seed)["per_round"], options)
 
 
 @torch.inference_mode()

@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     main_result = result["main"]
     print(f"evaluate_ind: Y-net ADE {main_result['ade']['mean']:.2f}  FDE {main_result['fde']['mean']:.2f}; "
-          + "  ".join(f"{m} ADE {r['ade']:.2f}" for m, r in result["baselines"].items()))
+          + "  ".join(f"{m} ADE {r['ade']['mean']:.2f}" for m, r in result["baselines"].items()))
 
 
 if __name__ == "__main__":

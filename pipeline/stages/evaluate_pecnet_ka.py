@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> None:
         raise ValueError(f"{args.table}: no {params.split} windows")
     rows = ka_rows(model, arrays, k_as, params.k, params.rounds, params.seed, device)
     for row in rows:
-        print(f"PECNet K_a = {row['k_a']} (K = {row['k']}): ADE {row['ade']:.2f}  FDE {row['fde']:.2f}")
+        print(f"PECNet K_a = {row['k_a']} (K = {row['k']}): ADE {row['ade']['mean']:.2f}  FDE {row['fde']['mean']:.2f}")
     write_json(rows, args.metrics)
 
 
