@@ -15,6 +15,8 @@ import torch
 import yaml
 
 from pipeline.stages import train_baseline
+from pipeline import checkpoints
+from tools import upgrade_checkpoints
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines import pecnet as pecnet_module
 from pipeline.harness.baselines import sgan as sgan_module
@@ -154,16 +156,16 @@ def test_sigterm_mid_epoch_then_resume_gives_the_same_weights(cls, config, tmp_p
         fit(tmp_path / "resumed", kill, preemption=preemption)
     assert stopped.value.exit_code == 143 and "epoch 1, batch 2" in stopped.value.reason
     assert fit.steps == stop_after  # the step in flight finished, no further one
-    state = common.load_checkpoint(tmp_path / "resumed" / common.LAST)
-    assert state["format"] == common.CHECKPOINT_FORMAT and state["epoch"] == 0 and len(state["history"]) == 1
-    partial = state["partial"]
+    saved = checkpoints.load(tmp_path / "resumed" / common.LAST)
+    assert saved["format"] == checkpoints.FORMAT and saved["epoch"] == 1 and len(saved["state"]["history"]) == 1
+    partial = saved["position"]
     assert partial["epoch"] == 1 and partial["next_batch"] == 2 and len(partial["batches"]) == per_epoch
-    assert partial["loss_sums"].dtype == torch.float64 and state["rng_device"] == "cpu"
+    assert partial["loss_sums"].dtype == torch.float64 and saved["state"]["rng_device"] == "cpu"
 
     resumed = fit(tmp_path / "resumed")
     assert fit.steps == steps - stop_after  # continued at exactly the next batch
     assert_same_run(straight, resumed)
-    assert common.load_checkpoint(tmp_path / "resumed" / common.LAST)["partial"] is None
+    assert checkpoints.load(tmp_path / "resumed" / common.LAST)["position"] is None
 
 
 def test_time_budget_stops_with_exit_code_75_and_resumes(tmp_path, monkeypatch):
@@ -180,7 +182,7 @@ def test_time_budget_stops_with_exit_code_75_and_resumes(tmp_path, monkeypatch):
         fit(tmp_path / "resumed", tick, preemption=budget)
     assert stopped.value.exit_code == EXIT_BUDGET == 75 and "max_minutes" in stopped.value.reason
     assert fit.steps == 3 < steps
-    assert common.load_checkpoint(tmp_path / "resumed" / common.LAST)["partial"]["next_batch"] == 3
+    assert checkpoints.load(tmp_path / "resumed" / common.LAST)["position"]["next_batch"] == 3
     resumed = fit(tmp_path / "resumed")
     assert fit.steps == steps - 3
     assert_same_run(straight, resumed)
@@ -212,30 +214,49 @@ def test_stage_exits_143_on_sigterm_and_resumes(tmp_path, monkeypatch):
         train_baseline.main(argv)
     assert stopped.value.code == 143 and not (tmp_path / "train.json").exists()
     assert signal.getsignal(signal.SIGTERM) == handler  # the stage's handler is gone again
-    assert common.load_checkpoint(tmp_path / "ck" / common.LAST)["partial"]["next_batch"] == 2
+    assert checkpoints.load(tmp_path / "ck" / common.LAST)["position"]["next_batch"] == 2
     monkeypatch.setattr(Pecnet, "train_step", original)
     train_baseline.main(argv)
     facts = json.loads((tmp_path / "train.json").read_text())
     assert facts["epochs"] == 2 and facts["device"].startswith("cpu")
 
 
-def test_older_and_other_device_checkpoints_resume(tmp_path, monkeypatch, capsys):
-    """A format-1 last.pt (before mid-epoch checkpoints) resumes exactly; one whose generator state
-    was written on another kind of device carries the weights over with a re-seeded generator."""
+def as_format_2(saved: dict) -> dict:
+    """A `last.pt` in the layout `run_training` wrote before the shared checkpoint scheme (format 2:
+    everything at the top level, `epoch` the 0-based index of the last finished one, `partial`)."""
+    state = saved["state"]
+    return {"format": 2, "config": state["config"], "meta": state["meta"], "epoch": saved["epoch"] - 1,
+            "data_fingerprint": saved["identity"]["data_fingerprint"], "best_epoch": state["best_epoch"],
+            "best_val": state["best_val"], "history": state["history"],
+            "train_seconds": state["train_seconds"], "modules": state["modules"],
+            "optimizers": state["optimizers"], "rng": state["rng"], "rng_device": state["rng_device"],
+            "partial": saved["position"]}
+
+
+def test_older_layouts_upgraded_and_other_device_checkpoints_resume(tmp_path, monkeypatch, capsys):
+    """A format-1 / format-2 last.pt (before the shared scheme) is refused as it stands and, once
+    `tools/upgrade_checkpoints` rewrote it, resumes exactly; one whose generator state was written
+    on another kind of device carries the weights over with a re-seeded generator."""
     fit = CountingFit(Pecnet, dataclasses.replace(TINY_PECNET, epochs=3), monkeypatch)
     straight = fit(tmp_path / "straight")
     two = CountingFit(Pecnet, dataclasses.replace(TINY_PECNET, epochs=2), monkeypatch)
-    for folder, edit in [("format1", lambda s: {**{k: v for k, v in s.items() if k not in ("partial", "rng_device")},
-                                                "format": 1}),
-                         ("other_device", lambda s: {**s, "rng_device": "cuda"})]:
+    format_1 = lambda s: {**{k: v for k, v in as_format_2(s).items() if k not in ("partial", "rng_device")},
+                          "format": 1}
+    for folder, edit in [("format1", format_1), ("format2", as_format_2),
+                         ("other_device", lambda s: {**s, "state": {**s["state"], "rng_device": "cuda"}})]:
         two(tmp_path / folder)
         last = tmp_path / folder / common.LAST
-        torch.save(edit(common.load_checkpoint(last)), last)
+        original = checkpoints.load(last)
+        torch.save(edit(original), last)
+        if folder != "other_device":
+            assert upgrade_checkpoints.upgrade(last)
+            upgraded = checkpoints.load(last)
+            assert upgraded["identity"] == original["identity"] and upgraded["epoch"] == original["epoch"]
+            assert not upgrade_checkpoints.upgrade(last)  # already in the scheme: left alone
         resumed = fit(tmp_path / folder)
         assert fit.steps == two.steps // 2  # one more epoch, not a fresh start
-        if folder == "format1":
+        if folder != "other_device":
             assert_same_run(straight, resumed)
         else:
             assert resumed.fit_result.history[:2] == straight.fit_result.history[:2]
             assert len(resumed.fit_result.history) == 3 and np.isfinite(resumed.fit_result.history[2]["val_ade"])
-            assert "written on cuda, resuming on cpu" in capsys.readouterr().out  # tqdm.write

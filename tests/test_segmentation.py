@@ -15,7 +15,8 @@ import torch
 
 from pipeline.data.labels import import_labels
 from pipeline.config import LabelsParams, ParamsError, SegmentationParams, SemanticParams, load_profile, load_section, read_params
-from pipeline.runners.segmentation import downsample_pair, export_model, fingerprint, learning_rate, load_checkpoint, load_model, pad_to_multiple, scaled_size, train
+from pipeline import checkpoints
+from pipeline.runners.segmentation import downsample_pair, export_model, fingerprint, learning_rate, load_model, pad_to_multiple, scaled_size, train
 from pipeline.data.semantic_maps import build_maps, dequantise, iou_summary, load_semantic_maps, one_hot_map, predicted_labels, quantise
 from ynet.segmentation import (
     N_OUTPUTS,
@@ -134,7 +135,7 @@ def test_resume_after_interruption_equals_uninterrupted_run(tmp_path):
     run_id = fingerprint(params, ["a", "b"], scenes)
     straight, log = train(scenes, params, tmp_path / "a.pt", run_id, progress=False)
     train(scenes, params, tmp_path / "b.pt", run_id, stop_after=1, progress=False)  # "killed"
-    assert len(load_checkpoint(tmp_path / "b.pt")["log"]) == 1
+    assert len(checkpoints.read(tmp_path / "b.pt").state["log"]) == 1
     resumed, resumed_log = train(scenes, params, tmp_path / "b.pt", run_id, progress=False)
     assert [r["loss"] for r in resumed_log] == [r["loss"] for r in log]
     for (name, a), b in zip(straight.state_dict().items(), resumed.state_dict().values()):

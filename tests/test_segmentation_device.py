@@ -14,18 +14,18 @@ import torch
 import yaml
 
 import pipeline.runners.segmentation as segmentation
+from tools import upgrade_checkpoints
 from pipeline.stages import segmentation as segmentation_stage
 from pipeline.stages import semantic_maps as semantic_maps_stage
 from pipeline.config import LabelsParams
 from pipeline.data.labels import import_labels
 from pipeline.io import save_torch
 from pipeline.preemption import EXIT_BUDGET, Preemption, StopRequested
+from pipeline import checkpoints
 from pipeline.runners.segmentation import (
-    CHECKPOINT_FORMAT,
     epoch_batches,
     export_model,
     fingerprint,
-    load_checkpoint,
     load_model,
     train,
     train_step,
@@ -115,18 +115,18 @@ def test_sigterm_mid_epoch_then_resume_gives_the_same_weights(tmp_path, monkeypa
         train(scenes, params, tmp_path / "b.pt", run_id, progress=False, preemption=preemption)
     assert stopped.value.exit_code == 143 and "SIGTERM" in stopped.value.reason
     assert "epoch 2, step 2" in stopped.value.reason
-    state = load_checkpoint(tmp_path / "b.pt")
-    assert state["format"] == CHECKPOINT_FORMAT and len(state["log"]) == 1
-    position = state["position"]
+    saved = checkpoints.load(tmp_path / "b.pt")
+    assert saved["format"] == checkpoints.FORMAT and len(saved["state"]["log"]) == saved["epoch"] == 1
+    position = saved["position"]
     assert (position["epoch"], position["step"], position["crops"]) == (1, 2, 2)
-    assert len(position["losses"]) == 2 and set(state["rng"]) == {"torch"}
+    assert len(position["losses"]) == 2 and set(saved["state"]["rng"]) == {"torch"}
     monkeypatch.undo()
 
     resumed, resumed_log = train(scenes, params, tmp_path / "b.pt", run_id, progress=False)
     assert [r["loss"] for r in resumed_log] == [r["loss"] for r in log]
     assert [r["crops"] for r in resumed_log] == [r["crops"] for r in log]
     assert_same_weights(straight, resumed)
-    assert load_checkpoint(tmp_path / "b.pt")["position"] is None  # ended at an epoch boundary
+    assert checkpoints.load(tmp_path / "b.pt")["position"] is None  # ended at an epoch boundary
 
 
 def test_time_budget_stops_with_exit_75_and_resumes(tmp_path, monkeypatch):
@@ -144,7 +144,7 @@ def test_time_budget_stops_with_exit_75_and_resumes(tmp_path, monkeypatch):
             pytest.raises(StopRequested) as stopped:
         train(scenes, params, tmp_path / "b.pt", run_id, progress=False, preemption=budget)
     assert stopped.value.exit_code == EXIT_BUDGET == 75 and "max_minutes" in stopped.value.reason
-    position = load_checkpoint(tmp_path / "b.pt")["position"]
+    position = checkpoints.load(tmp_path / "b.pt")["position"]
     assert (position["epoch"], position["step"]) == (0, 2)
     monkeypatch.undo()
 
@@ -156,7 +156,7 @@ def test_time_budget_stops_with_exit_75_and_resumes(tmp_path, monkeypatch):
                 pytest.raises(StopRequested):
             train(scenes, params, tmp_path / "b.pt", run_id, progress=False, preemption=budget)
         monkeypatch.undo()
-    position = load_checkpoint(tmp_path / "b.pt")["position"]
+    position = checkpoints.load(tmp_path / "b.pt")["position"]
     assert (position["epoch"], position["step"]) == (1, 2)
     resumed, resumed_log = train(scenes, params, tmp_path / "b.pt", run_id, progress=False)
     assert [r["loss"] for r in resumed_log] == [r["loss"] for r in log]
@@ -170,22 +170,27 @@ def test_stop_before_an_epochs_first_step_resumes_there(tmp_path, monkeypatch):
     with Preemption() as preemption, pytest.raises(StopRequested) as stopped:
         train(scenes, params, tmp_path / "b.pt", run_id, progress=False, preemption=preemption)
     assert stopped.value.exit_code == 130
-    state = load_checkpoint(tmp_path / "b.pt")
-    position = state["position"]
-    assert len(state["log"]) == 1 and (position["epoch"], position["step"]) == (1, 0)
+    saved = checkpoints.load(tmp_path / "b.pt")
+    position = saved["position"]
+    assert len(saved["state"]["log"]) == 1 and (position["epoch"], position["step"]) == (1, 0)
     monkeypatch.undo()
     resumed, _ = train(scenes, params, tmp_path / "b.pt", run_id, progress=False)
     assert_same_weights(straight, resumed)
 
 
-def test_format_1_end_of_epoch_checkpoint_still_resumes(tmp_path, capsys):
+def test_an_older_layout_upgraded_by_the_tool_resumes(tmp_path, capsys):
+    """A format-1 `last.pt` (end of epoch, no RNG states), as the loop wrote it before the shared
+    scheme, is refused as it stands and resumes exactly once `tools/upgrade_checkpoints` rewrote it."""
     params, scenes, run_id = small_run()
     straight, log = train(scenes, params, tmp_path / "a.pt", run_id, progress=False)
     train(scenes, params, tmp_path / "b.pt", run_id, stop_after=1, progress=False)
-    state = load_checkpoint(tmp_path / "b.pt")
+    state = checkpoints.load(tmp_path / "b.pt")["state"]
     save_torch(in_memory=True, path=tmp_path / "b.pt",
                payload={"format": 1, "fingerprint": run_id, "model": state["model"],
                         "optimiser": state["optimiser"], "log": state["log"]})
+    assert checkpoints.resume(tmp_path / "b.pt", {"run": run_id}, params.epochs, "test") is None
+    assert "checkpoint format 1" in capsys.readouterr().out
+    assert upgrade_checkpoints.upgrade(tmp_path / "b.pt")
     resumed, resumed_log = train(scenes, params, tmp_path / "b.pt", run_id)
     assert "resuming after epoch 1" in capsys.readouterr().out
     assert [r["loss"] for r in resumed_log] == [r["loss"] for r in log]
@@ -264,7 +269,7 @@ def test_stage_main_exits_143_on_sigterm_and_resumes_to_the_same_model(tmp_path,
     with pytest.raises(SystemExit) as stopped:
         segmentation_stage.main()
     assert stopped.value.code == 143 and signal.getsignal(signal.SIGTERM) == handler
-    position = load_checkpoint(tmp_path / "killed.ckpt")["position"]
+    position = checkpoints.load(tmp_path / "killed.ckpt")["position"]
     assert (position["epoch"], position["step"]) == (1, 1) and not killed.exists()
     monkeypatch.setattr(segmentation, "step_loss", real_step)
     segmentation_stage.main()

@@ -250,7 +250,7 @@ def test_ynet_resumes_to_the_same_weights(tmp_path):
     train_in(tmp_path / "a")
     train_in(tmp_path / "b", epochs=1)
     train_in(tmp_path / "b")
-    straight, resumed = (torch.load(tmp_path / f / "last.pt", weights_only=True)["model"]
+    straight, resumed = (torch.load(tmp_path / f / "last.pt", weights_only=True)["state"]["model"]
                          for f in ("a", "b"))
     for name in straight:
         torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)
@@ -273,7 +273,7 @@ def test_steps_per_epoch_caps_the_optimiser_steps(tmp_path):
         folder = tmp_path / str(cap)
         train(train_arrays, val_arrays, maps, sizes, settings, N_PAST, folder / "last.pt",
               folder / "best.pt", folder / "history.csv")
-        adam = torch.load(folder / "last.pt", weights_only=True)["optimizer"]["state"]
+        adam = torch.load(folder / "last.pt", weights_only=True)["state"]["optimizer"]["state"]
         assert {int(state["step"]) for state in adam.values()} == {steps}
 
 def fold_benchmark(tmp_path: Path):

@@ -42,7 +42,7 @@ def run(tmp_path, epochs=None):
     settings = YnetSettings(**SETTINGS)
     summary = train(arrays(6, "train", 0), arrays(2, "val", 1), MAPS, SIZES, settings, N_PAST,
                     tmp_path / "last.pt", tmp_path / "best.pt", tmp_path / "history.csv", epochs)
-    return summary, torch.load(tmp_path / "last.pt", weights_only=True)["model"]
+    return summary, torch.load(tmp_path / "last.pt", weights_only=True)["state"]["model"]
 
 
 def test_resume_gives_the_same_weights_as_an_uninterrupted_run(tmp_path):
@@ -83,7 +83,7 @@ def test_stopped_mid_epoch_then_resumed_gives_the_same_weights(tmp_path, monkeyp
               preemption=preemption)
     assert stopped.value.exit_code == (143 if how == "sigterm" else 75)
     saved = torch.load(folder / "last.pt", weights_only=True)
-    assert saved["state"]["epoch"] == 1 and len(saved["partial_losses"]) == 2
+    assert saved["epoch"] == 1 and len(saved["position"]["losses"]) == 2
     monkeypatch.undo()
     summary, resumed = run(folder)
     assert summary["epochs"] == 2
@@ -119,7 +119,7 @@ def test_a_checkpoint_of_other_settings_is_not_resumed(tmp_path, capsys):
     def train_other(folder):
         train(arrays(6, "train", 0), arrays(2, "val", 1), MAPS, SIZES, other, N_PAST,
               folder / "last.pt", folder / "best.pt", folder / "history.csv")
-        return torch.load(folder / "last.pt", weights_only=True)["model"]
+        return torch.load(folder / "last.pt", weights_only=True)["state"]["model"]
 
     capsys.readouterr()
     restarted = train_other(tmp_path / "b")

@@ -6,8 +6,9 @@ two documented departures: no ImageNet-pretrained ResNet101 encoder exists here,
 trained from scratch, and the default `cpu` profile is a smaller net and a shorter schedule that
 trains in minutes on two CPU cores. The `paper` profile holds the paper's schedule.
 
-Seeded; one checkpoint per epoch (state_dicts only) tagged with a fingerprint of the settings and the
-training data, so an interrupted run resumes where it stopped and a changed run starts afresh.
+Seeded; one checkpoint per epoch (`pipeline.checkpoints`, state_dicts only) whose identity is a
+fingerprint of the settings and the training data, so an interrupted run resumes where it stopped
+and a changed run starts afresh.
 On SIGTERM / SIGINT or when `runtime.max_minutes` runs out (`pipeline.preemption`) the loop also
 saves a mid-epoch checkpoint between two optimiser steps and stops (exit 143 / 130 / 75); resuming
 from it ends with the very same weights as an uninterrupted run. Runs on `runtime.device`
@@ -34,18 +35,15 @@ from tqdm import tqdm
 from pipeline.config import SegmentationParams
 from pipeline.data.augment import random_crop
 from pipeline.data.labels import read_label_map, reference_image_path
+from pipeline import checkpoints
 from pipeline.device import (autocast, conv_layout, module_device,
                              restore_rng_states, rng_states, synchronize, to_device)
 from pipeline.io import save_torch, write_bytes
 from pipeline.preemption import NEVER, Preemption
 from ynet.segmentation import CLASS_NAMES, PAD_CLASS, UNet, UNetConfig, dice_loss
 
-CHECKPOINT_FORMAT = 2
-"""Training checkpoints. 2: adds RNG states and, after a stop between steps, the position within the
-epoch (`position`). 1 (end-of-epoch only) still resumes; anything else starts afresh."""
-RESUMABLE_FORMATS = (1, 2)
 MODEL_FORMAT = 1
-"""The exported weights (`export_model`); unchanged by checkpoint format 2."""
+"""The exported weights (`export_model`)."""
 
 
 
@@ -138,15 +136,6 @@ def unet_config(params: SegmentationParams) -> UNetConfig:
     return UNetConfig(base_channels=params.base_channels, depth=params.depth)
 
 
-def load_checkpoint(path: Path) -> dict | None:
-    """A checkpoint dict, or None if absent; `weights_only` refuses anything but tensors and plain data.
-
-    Tensors land on the CPU whatever device wrote them (`load_state_dict` moves them on)."""
-    if not Path(path).exists():
-        return None
-    return torch.load(path, map_location="cpu", weights_only=True)
-
-
 def step_loss(model: UNet, optimiser: torch.optim.Optimizer, images: torch.Tensor,
               labels: torch.Tensor, bf16: bool) -> torch.Tensor:
     """One Adam step on the Dice loss, on the model's device; returns the detached loss (0-d, on that
@@ -202,21 +191,14 @@ def train(
     optimiser = torch.optim.Adam(model.parameters(), lr=params.lr)
     log: list[dict] = []
     position: dict | None = None  # where in an epoch a mid-epoch checkpoint stopped
-    state = load_checkpoint(checkpoint)
-    if state is not None and state.get("format") not in RESUMABLE_FORMATS:
-        if progress:
-            print(f"segmentation: {checkpoint} has checkpoint format {state.get('format')!r}, this "
-                  f"code reads {RESUMABLE_FORMATS}; starting afresh")
-    elif state is not None and state.get("fingerprint") != run_id:
-        if progress:
-            print(f"segmentation: {checkpoint} belongs to another run (settings or data changed); "
-                  "starting afresh")
-    elif state is not None:
-        model.load_state_dict(state["model"])
-        optimiser.load_state_dict(state["optimiser"])
-        log = list(state["log"])
-        restore_rng_states(state.get("rng"), device)
-        position = state.get("position")
+    resumed = checkpoints.resume(checkpoint, {"run": run_id}, params.epochs,
+                                 "segmentation" if progress else "")
+    if resumed is not None:
+        model.load_state_dict(resumed.state["model"])
+        optimiser.load_state_dict(resumed.state["optimiser"])
+        log = list(resumed.state["log"])
+        restore_rng_states(resumed.state["rng"], device)
+        position = resumed.position
         if progress and position is not None:
             print(f"segmentation: resuming at epoch {position['epoch'] + 1}, step "
                   f"{position['step']} from {checkpoint}")
@@ -249,11 +231,10 @@ def train(
                 if steps_taken and preemption.stop_reason() is not None:
                     if pending is not None:
                         losses.append(pending.item())
-                    save_torch(path=checkpoint, in_memory=True, payload=checkpoint_payload(
-                        run_id, model, optimiser, log, device, position={
-                            "epoch": epoch, "step": step, "batch_rng": rng.bit_generator.state,
-                            "losses": losses, "crops": n_crops,
-                            "seconds": seconds_before + time.perf_counter() - start}))
+                    save_checkpoint(checkpoint, run_id, model, optimiser, log, device, position={
+                        "epoch": epoch, "step": step, "batch_rng": rng.bit_generator.state,
+                        "losses": losses, "crops": n_crops,
+                        "seconds": seconds_before + time.perf_counter() - start})
                     raise preemption.request(f"epoch {epoch + 1}, step {step}")
                 batch = order[step * params.batch_size:(step + 1) * params.batch_size]
                 images, labels = make_batch(scenes, params, rng, batch)
@@ -272,20 +253,21 @@ def train(
             log.append({"epoch": epoch + 1, "loss": float(np.mean(losses)),
                         "lr": learning_rate(params, epoch), "crops": n_crops,
                         "seconds": round(seconds, 3)})
-            save_torch(path=checkpoint, in_memory=True, payload=checkpoint_payload(run_id, model, optimiser, log, device))
+            save_checkpoint(checkpoint, run_id, model, optimiser, log, device)
     finally:
         bar.close()
     return model, log
 
 
-def checkpoint_payload(run_id: str, model: UNet, optimiser: torch.optim.Optimizer, log: list[dict],
-                       device: torch.device, position: dict | None = None) -> dict:
-    """A training checkpoint (format 2): state_dicts, log, RNG states; `position` (mid-epoch only):
-    epoch (0-based), step (the next one to take), batch_rng (the epoch's numpy stream before that
-    step's crops), losses (the epoch's step losses so far), crops, seconds (spent in the epoch)."""
-    return {"format": CHECKPOINT_FORMAT, "fingerprint": run_id, "model": model.state_dict(),
-            "optimiser": optimiser.state_dict(), "log": log, "rng": rng_states(device),
-            "position": position}
+def save_checkpoint(path: Path, run_id: str, model: UNet, optimiser: torch.optim.Optimizer,
+                    log: list[dict], device: torch.device, position: dict | None = None) -> None:
+    """`last.pt` (`pipeline.checkpoints`, identity {"run": run_id}): state_dicts, log, RNG states;
+    `position` (mid-epoch only): epoch (0-based), step (the next one to take), batch_rng (the
+    epoch's numpy stream before that step's crops), losses (the epoch's step losses so far), crops,
+    seconds (spent in the epoch)."""
+    checkpoints.save(path, {"run": run_id}, len(log),
+                     {"model": model.state_dict(), "optimiser": optimiser.state_dict(), "log": log,
+                      "rng": rng_states(device)}, position)
 
 
 def export_model(path: Path, model: UNet, params: SegmentationParams, profile: str,
@@ -311,9 +293,10 @@ def export_model(path: Path, model: UNet, params: SegmentationParams, profile: s
 def load_model(path: Path, device: torch.device | str = "cpu") -> tuple[UNet, dict]:
     """Rebuild the exported U-Net in eval mode on `device` (channels-last on CUDA); returns it and
     the export's metadata."""
-    state = load_checkpoint(path)
-    if state is None:
+    if not Path(path).exists():
         raise FileNotFoundError(f"{path}: no trained segmentation model")
+    # weights_only: tensors and plain data only; on the CPU whatever device wrote them
+    state = torch.load(path, map_location="cpu", weights_only=True)
     model = UNet(UNetConfig(**state["unet"]))
     model.load_state_dict(state["model"])
     model = conv_layout(model, torch.device(device))

@@ -29,6 +29,7 @@ from tqdm import tqdm
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import (AUGMENTATIONS, SceneWindows, augment, cropped_training_batch,
                                      group_by_scene, padded_semantic, training_batch, window_inputs)
+from pipeline import checkpoints
 from pipeline.device import CPU, autocast, conv_layout, restore_rng_states, rng_states
 from pipeline.harness.metrics import ade_fde
 from pipeline.io import copy_file, save_torch, write_csv
@@ -266,30 +267,15 @@ def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str
     return digest.hexdigest()
 
 
-def resumable_checkpoint(path: Path, run_id: str, epochs: int,
-                         device: torch.device = CPU) -> dict | None:
-    """The checkpoint at `path` if this run can continue from it, else None (saying why)."""
-    if not path.exists():
-        return None
-    saved = torch.load(path, weights_only=True, map_location=device)
-    if saved.get("run_id") != run_id:
-        print(f"train_ynet: {path} was trained with other settings, windows or maps; starting afresh")
-        return None
-    if saved["state"]["epoch"] > epochs:
-        print(f"train_ynet: {path} has {saved['state']['epoch']} epochs, more than the {epochs} asked "
-              "for; starting afresh")
-        return None
-    return saved
-
-
 def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, sizes,
           settings: YnetSettings, n_past: int, checkpoint: Path, best_path: Path,
           history_path: Path, epochs: int | None = None, device: torch.device = CPU,
           preemption: Preemption = NEVER) -> dict:
     """Train (resuming from `checkpoint` if present); returns the training summary.
 
-    Checkpoint = weights, optimiser, the plan RNG's state at the start of the next epoch (or of the
-    current one, with `partial_losses` of the steps already taken in it), torch's RNG, history.
+    Checkpoint (`pipeline.checkpoints`; identity: `run_fingerprint`) = weights, optimiser, the plan
+    RNG's state at the start of the next epoch (or of the current one, with the position's `losses`
+    of the steps already taken in it), torch's RNG, history.
     """
     torch.set_num_threads(settings.threads)
     torch.set_flush_denormal(True)  # otherwise Adam crawls through denormal numbers on CPU
@@ -303,23 +289,27 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
 
     state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
     partial_losses: list[float] = []
-    run_id = run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)
-    kept_best = checkpoint.with_name("best.pt")  # the best weights, kept beside the checkpoint
-    saved = resumable_checkpoint(checkpoint, run_id, epochs or settings.epochs, device)
-    if saved is not None:
-        model.load_state_dict(saved["model"])
-        optimizer.load_state_dict(saved["optimizer"])
-        rng.bit_generator.state = saved["rng"]["numpy_plan"]
-        restore_rng_states(saved["rng"], device)
-        state = saved["state"]
-        partial_losses = list(saved.get("partial_losses", []))
+    identity = {"run": run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)}
+    kept_best = checkpoint.with_name(checkpoints.BEST)  # the best weights, beside the checkpoint
+    resumed = checkpoints.resume(checkpoint, identity, epochs or settings.epochs, "train_ynet")
+    if resumed is not None:
+        model.load_state_dict(resumed.state["model"])
+        optimizer.load_state_dict(resumed.state["optimizer"])
+        rng.bit_generator.state = resumed.state["rng"]["numpy_plan"]
+        restore_rng_states(resumed.state["rng"], device)
+        state = {"epoch": resumed.epoch, **resumed.state["progress"]}
+        partial_losses = list(resumed.position["losses"]) if resumed.position else []
         print(f"train_ynet: resuming after epoch {state['epoch']}"
-              + (f", step {len(partial_losses)}" if partial_losses else ""))
+              + (f", step {len(partial_losses)}" if resumed.position else ""))
 
-    def save_checkpoint(plan_state: dict, losses: list[float]) -> None:
-        save_torch({"model": model.state_dict(), "optimizer": optimizer.state_dict(),
-                     "rng": {"numpy_plan": plan_state, **rng_states(device)}, "state": state,
-                     "run_id": run_id, "partial_losses": list(losses)}, checkpoint)
+    def save_checkpoint(plan_state: dict, losses: list[float] | None) -> None:
+        """`losses`: the steps taken in the epoch under way (None at the end of an epoch)."""
+        progress = {key: state[key] for key in ("history", "best", "seconds")}
+        checkpoints.save(checkpoint, identity, state["epoch"],
+                         {"model": model.state_dict(), "optimizer": optimizer.state_dict(),
+                          "rng": {"numpy_plan": plan_state, **rng_states(device)},
+                          "progress": progress},
+                         None if losses is None else {"losses": list(losses)})
 
     for epoch in range(state["epoch"] + 1, (epochs or settings.epochs) + 1):
         if preemption.stop_reason():  # the last epoch's checkpoint is already on disk
@@ -341,7 +331,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
             save_torch({"model": model.state_dict(), "config": asdict(model.config),
                          "settings": asdict(settings), "epoch": epoch}, kept_best)
         state["epoch"] = epoch
-        save_checkpoint(rng.bit_generator.state, [])
+        save_checkpoint(rng.bit_generator.state, None)
         write_csv(pd.DataFrame(state["history"]), history_path)
     # DVC deletes the stage's outputs before a re-run, so a run resumed after its last epoch (or
     # after the best epoch) must still deliver them: both come from the checkpoint folder.

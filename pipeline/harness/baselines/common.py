@@ -6,11 +6,11 @@ Co-occurrence: two windows are observed at the same time in the same place when 
 first frames mean equal frames at every step). Social pooling only ever mixes windows of one group.
 
 Checkpoints (one directory per trained model):
-- `last.pt`: everything needed to resume: module and optimizer state_dicts, RNG states, the epoch
-  history, the best epoch so far. Written at the end of every epoch, and in the middle of one when
-  training is preempted (SIGTERM / SIGINT, or the `runtime.max_minutes` budget: see
-  `pipeline.preemption`); then its `partial` entry holds where that epoch stands (see
-  `run_training`), and the next call continues at exactly that batch.
+- `last.pt` (`pipeline.checkpoints`, the scheme every training loop shares): everything needed to
+  resume: module and optimizer state_dicts, RNG states, the epoch history, the best epoch so far.
+  Written at the end of every epoch, and in the middle of one when training is preempted (SIGTERM /
+  SIGINT, or the `runtime.max_minutes` budget: see `pipeline.preemption`); then its position holds
+  where that epoch stands (see `run_training`), and the next call continues at exactly that batch.
 - `best.pt`: the module state_dicts of the epoch with the lowest validation error, the config and
   what the model needs to predict (n_past, n_future). What evaluation loads.
 Both are written to a temporary file and renamed, so an interruption never leaves a torn file, and
@@ -45,17 +45,15 @@ from torch import nn
 from tqdm import tqdm
 
 from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline import checkpoints
 from pipeline.device import CPU, restore_rng_states, rng_states, to_device
 from pipeline.device import generator as seeded_generator
 from pipeline.io import save_torch
 from pipeline.preemption import NEVER, Preemption
 
-CHECKPOINT_FORMAT = 2
-# Format 1 (before mid-epoch checkpoints) is format 2 without `partial`, `rng_device` and the CUDA
-# RNG state: it was always written on the CPU at the end of an epoch, and resumes as such.
+BEST_FORMAT = 2  # of `best.pt`; format 1 differs only in what `last.pt` held then
 READABLE_FORMATS = (1, 2)
-LAST = "last.pt"
-BEST = "best.pt"
+LAST, BEST = checkpoints.LAST, checkpoints.BEST
 
 
 # ---------------------------------------------------------------------------------------------
@@ -177,9 +175,8 @@ def as_input(values: np.ndarray, device: torch.device, dtype: torch.dtype | None
 
 
 def load_checkpoint(path: Path, map_location: torch.device | str = "cpu") -> dict[str, Any]:
-    """A checkpoint written by `run_training` (tensors and plain values only), its tensors on
-    `map_location`. Keep the default for a `last.pt` that resumes training: RNG states must be CPU
-    tensors."""
+    """A `best.pt` written by `run_training` (tensors and plain values only), its tensors on
+    `map_location`."""
     state = torch.load(Path(path), map_location=map_location, weights_only=True)
     if state.get("format") not in READABLE_FORMATS:
         raise ValueError(f"{path}: checkpoint format {state.get('format')}, expected one of {READABLE_FORMATS}")
@@ -228,44 +225,44 @@ def run_training(
     return the modules hold the best epoch's weights. The modules live on `device`, `generator`
     too (its state must be restored on the same kind of device).
 
-    Resuming: a `last.pt` of the same data (`data_fingerprint`: windows and seed) and the same
-    config (up to `epochs`, which may only grow) is continued where it stopped, and ends exactly
-    where an uninterrupted run would. Any other `last.pt` is stale (the settings or the data
-    changed, as when DVC re-runs the stage): training starts afresh and overwrites it.
+    Resuming (`pipeline.checkpoints.resume`): a `last.pt` of the same data (`data_fingerprint`:
+    windows and seed) and the same config (up to `epochs`, which may only grow) is continued where
+    it stopped, and ends exactly where an uninterrupted run would. Any other `last.pt` is stale (the
+    settings or the data changed, as when DVC re-runs the stage): training starts afresh and
+    overwrites it.
 
     Preemption: before every optimiser step (and after an epoch's last one) the loop polls
-    `preemption.stop_reason()`; when it is set, `last.pt` gets a `partial` entry (the epoch, the
-    index of the next batch, the epoch's batches as drawn and its running loss sums), next to the
-    modules, optimizers and RNG states as they are at that point, and `preemption.request(...)` is
-    raised.
+    `preemption.stop_reason()`; when it is set, `last.pt` gets a position (the epoch, the index of
+    the next batch, the epoch's batches as drawn and its running loss sums), next to the modules,
+    optimizers and RNG states as they are at that point, and `preemption.request(...)` is raised.
     """
     checkpoint_dir = Path(checkpoint_dir)
     checkpoint_dir.mkdir(parents=True, exist_ok=True)
+    identity = {**{k: v for k, v in config.items() if k not in RESUMABLE_CHANGES},
+                "data_fingerprint": data_fingerprint}
     start, best_epoch, best_val, history, seconds, partial = 0, -1, float("inf"), [], 0.0, None
-    state = _resumable_state(checkpoint_dir / LAST, config, data_fingerprint)
-    if state is None:  # nothing stale may survive a fresh start
+    resumed = checkpoints.resume(checkpoint_dir / LAST, identity, config.get("epochs", 0), name)
+    if resumed is None:  # nothing stale may survive a fresh start
         for stale in (LAST, BEST):
             (checkpoint_dir / stale).unlink(missing_ok=True)
     else:
+        state = resumed.state
         for key, module in modules.items():
             module.load_state_dict(state["modules"][key])
         for key, opt in optimizers.items():
             opt.load_state_dict(state["optimizers"][key])
         _restore_rng(state, generator, device, checkpoint_dir / LAST)
-        start, best_epoch, best_val = state["epoch"] + 1, state["best_epoch"], state["best_val"]
-        history, seconds, partial = list(state["history"]), state["train_seconds"], state.get("partial")
+        start, best_epoch, best_val = resumed.epoch, state["best_epoch"], state["best_val"]
+        history, seconds, partial = list(state["history"]), state["train_seconds"], resumed.position
 
-    def save_last(epoch_done: int, partial_state: dict[str, Any] | None) -> None:
-        save_torch({
-            "format": CHECKPOINT_FORMAT, "config": config, "meta": meta, "epoch": epoch_done,
-            "data_fingerprint": data_fingerprint,
-            "best_epoch": best_epoch, "best_val": best_val, "history": history,
-            "train_seconds": seconds, "modules": _state_dicts(modules),
+    def save_last(epochs_done: int, partial_state: dict[str, Any] | None) -> None:
+        checkpoints.save(checkpoint_dir / LAST, identity, epochs_done, {
+            "config": config, "meta": meta, "best_epoch": best_epoch, "best_val": best_val,
+            "history": history, "train_seconds": seconds, "modules": _state_dicts(modules),
             "optimizers": {k: o.state_dict() for k, o in optimizers.items()},
             "rng": {"generator": generator.get_state(), **rng_states(device)},
             "rng_device": generator.device.type,
-            "partial": partial_state,
-        }, checkpoint_dir / LAST)
+        }, partial_state)
 
     bar = tqdm(range(start, epochs), desc=f"train {name}", initial=start, total=epochs, leave=False)
     for epoch in bar:
@@ -281,7 +278,7 @@ def run_training(
         for i in range(first, len(batches) + 1):
             if preemption.stop_reason() is not None:
                 seconds += time.perf_counter() - t0
-                save_last(epoch - 1, {"epoch": epoch, "next_batch": i,
+                save_last(epoch, {"epoch": epoch, "next_batch": i,
                                       "batches": [torch.from_numpy(np.asarray(b, np.int64)) for b in batches],
                                       "loss_sums": torch.from_numpy(totals.copy())})
                 raise preemption.request(f"epoch {epoch}, batch {i} of {len(batches)}")
@@ -296,9 +293,9 @@ def run_training(
         history.append({"epoch": epoch, **losses, "val_ade": val})
         if val < best_val or best_epoch < 0:
             best_epoch, best_val = epoch, val
-            save_torch({"format": CHECKPOINT_FORMAT, "config": config, "meta": meta, "epoch": epoch,
+            save_torch({"format": BEST_FORMAT, "config": config, "meta": meta, "epoch": epoch,
                          "val_ade": val, "modules": _state_dicts(modules)}, checkpoint_dir / BEST)
-        save_last(epoch, None)
+        save_last(epoch + 1, None)
         bar.set_postfix(val_ade=f"{val:.1f}", best=f"{best_val:.1f}@{best_epoch}")
     if best_epoch < 0:
         raise ValueError(f"{name}: no epoch trained (epochs = {epochs})")
@@ -311,18 +308,16 @@ def run_training(
 
 
 def _state_dicts(modules: dict[str, nn.Module]) -> dict[str, dict[str, torch.Tensor]]:
-    """Copies of the modules' state_dicts as CPU tensors (a GPU run's checkpoint loads anywhere)."""
-    return {k: {n: t.detach().to(CPU, copy=True) for n, t in m.state_dict().items()}
-            for k, m in modules.items()}
+    return {k: checkpoints.cpu_state_dict(m) for k, m in modules.items()}
 
 
 def _restore_rng(state: dict[str, Any], generator: torch.Generator, device: torch.device, path: Path) -> None:
-    """Put back the RNG states of a `last.pt`. A generator state only fits a generator of the
+    """Put back the RNG states of a `last.pt`'s state. A generator state only fits a generator of the
     same device type: resumed on another kind of device, the weights, optimizers and position
     carry over and the training generator is re-seeded from the saved state (deterministic, but
     not the numbers an uninterrupted run would have drawn; nor are another device's kernels)."""
     rng = state["rng"]
-    saved_on = state.get("rng_device", "cpu")  # format 1: always the CPU
+    saved_on = state["rng_device"]
     if saved_on == generator.device.type:
         generator.set_state(rng["generator"])
     else:
@@ -331,25 +326,6 @@ def _restore_rng(state: dict[str, Any], generator: torch.Generator, device: torc
         tqdm.write(f"{path}: written on {saved_on}, resuming on {generator.device.type}: the training "
                    "generator restarts from a seed derived from its saved state")
     restore_rng_states(rng, device)
-
-
-def _resumable_state(path: Path, config: dict[str, Any], data_fingerprint: str) -> dict[str, Any] | None:
-    """The state in `path` if training can continue from it, else None (with a notice why)."""
-    if not path.exists():
-        return None
-    state = load_checkpoint(path)
-    changed = sorted(k for k in set(state["config"]) | set(config)
-                     if k not in RESUMABLE_CHANGES and state["config"].get(k) != config.get(k))
-    if state.get("data_fingerprint") != data_fingerprint:
-        changed.append("training data or seed")
-    partial = state.get("partial")
-    reached = partial["epoch"] if partial is not None else state["epoch"]  # last epoch begun
-    if reached + 1 > config.get("epochs", 0):
-        changed.append("epochs (fewer than already trained)")
-    if changed:
-        tqdm.write(f"{path}: trained with other {', '.join(changed)}; starting afresh")
-        return None
-    return state
 
 
 def fingerprint(seed: int, *arrays: WindowArrays) -> str:
@@ -364,7 +340,7 @@ def fingerprint(seed: int, *arrays: WindowArrays) -> str:
 
 def fit_result_from(checkpoint_dir: Path) -> FitResult:
     """The FitResult recorded in a checkpoint directory's `last.pt`."""
-    state = load_checkpoint(Path(checkpoint_dir) / LAST)
+    state = checkpoints.read(Path(checkpoint_dir) / LAST).state
     return FitResult(best_epoch=state["best_epoch"], best_val_ade=state["best_val"],
                      epochs=len(state["history"]), train_seconds=state["train_seconds"],
                      history=list(state["history"]))
