@@ -58,16 +58,19 @@ def test_read_refuses_another_layout(tmp_path):
         checkpoints.read(tmp_path / "last.pt")
 
 
-def ynet_legacy(losses: list[float]) -> dict:
-    """A `last.pt` as `pipeline.runners.ynet_training.train` wrote it before the shared scheme."""
-    return {"model": {"w": torch.ones(2)}, "optimizer": {"state": {}, "param_groups": []},
+def ynet_legacy(losses: list[float] | None) -> dict:
+    """A `last.pt` as `pipeline.runners.ynet_training.train` wrote it before the shared scheme
+    (`losses` None: before mid-epoch checkpoints, without `partial_losses`)."""
+    saved = {"model": {"w": torch.ones(2)}, "optimizer": {"state": {}, "param_groups": []},
             "rng": {"numpy_plan": {"state": 7}, "torch": torch.zeros(3, dtype=torch.uint8)},
             "state": {"epoch": 4, "history": [{"epoch": e} for e in range(1, 5)],
                       "best": {"epoch": 3, "val_ade": 9.5}, "seconds": 12.5},
             "run_id": "f00d", "partial_losses": losses}
+    return saved if losses is not None else {k: v for k, v in saved.items() if k != "partial_losses"}
 
 
-@pytest.mark.parametrize("losses, position", [([], None), ([0.5, 0.25], {"losses": [0.5, 0.25]})])
+@pytest.mark.parametrize("losses, position", [(None, None), ([], None),
+                                              ([0.5, 0.25], {"losses": [0.5, 0.25]})])
 def test_a_ynet_checkpoint_of_the_older_layout_is_upgraded(tmp_path, losses, position):
     path = tmp_path / "last.pt"
     torch.save(ynet_legacy(losses), path)

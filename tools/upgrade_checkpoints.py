@@ -29,9 +29,9 @@ def upgraded(saved: dict[str, Any], path: Path) -> dict[str, Any] | None:
     """The file's content in the shared scheme's envelope, or None if it already is in it."""
     if saved.get("format") == checkpoints.FORMAT:
         return None
-    if "run_id" in saved and "partial_losses" in saved:  # Y-net (pipeline.runners.ynet_training)
+    if "run_id" in saved and "state" in saved:  # Y-net (pipeline.runners.ynet_training)
         progress = saved["state"]
-        losses = list(saved["partial_losses"])
+        losses = list(saved.get("partial_losses", []))  # absent before mid-epoch checkpoints
         return {"identity": {"run": saved["run_id"]}, "epoch": progress["epoch"],
                 # no step taken in the epoch is the same as its start: the plan RNG state is the
                 # one saved at the end of the previous epoch
