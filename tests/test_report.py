@@ -554,3 +554,22 @@ def test_page_shows_the_params_dvc_lock_recorded_not_params_yaml(project):
     html = full_project(project).read_text()
     assert "unread_section" not in html
     assert "release_horizon" in html  # windows, as the lock's `windows` stage recorded it
+
+
+def test_a_single_round_shows_no_spread(project):
+    """One round has std 0 by definition: the page says "1 round", never "± 0.00 over 1 rounds"."""
+    files = data_metrics() | model_metrics()
+    files["short_term/sdd.json"]["rounds"] = 1
+    for k in ("k20", "k5"):
+        for metric in ("ade", "fde"):
+            files["short_term/sdd.json"]["models"]["ynet"][k][metric]["std"] = 0.0
+    write_metrics(project / "metrics", files)
+    store = report.load_metrics(project / "metrics", "metrics")
+    one = report.lookup(store, "short_term/sdd.json", ("models", "ynet", "k20", "ade"))
+    three = report.lookup(store, "ynet_eval.json", ("main", "ade"))
+    assert (one.std, one.rounds) == (None, 1) and (three.std, three.rounds) == (0.4, 3)
+    table = parse(run_report(project).read_text())
+    cells = [" ".join(c["text"].split()) for c in comparison_cells(table)]
+    short = [c for c in cells if "8.25" in c or "11.75" in c]
+    assert short and all("1 round, no spread" in c and "±" not in c for c in short), short
+    assert not any("over 1 rounds" in c for c in cells)

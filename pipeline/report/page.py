@@ -133,15 +133,17 @@ def is_number(value: Any) -> bool:
 
 
 def as_measured(node: Any, rounds: Any, source: str, note: str = "") -> Measured | Absent:
-    """A metric node -> `Measured`: a number (no spread) or {"mean", "std"} over rounds."""
+    """A metric node -> `Measured`: a number (no spread) or {"mean", "std"} over rounds. The std
+    of a single round (0 by definition) is no measured spread and is dropped."""
     if isinstance(node, dict):
         mean, std, rounds = node.get("mean"), node.get("std"), node.get("rounds", rounds)
     else:
         mean, std = node, None
     if not is_number(mean):
         return Absent(f"{source} is not a finite number ({mean!r})", "invalid")
-    return Measured(float(mean), float(std) if is_number(std) else None,
-                    int(rounds) if is_number(rounds) else None, source, note)
+    rounds = int(rounds) if is_number(rounds) else None
+    spread = float(std) if is_number(std) and rounds != 1 else None
+    return Measured(float(mean), spread, rounds, source, note)
 
 
 def horizon_mismatch(store: MetricsStore, rel: str, record: Any, t_f: int | None) -> Absent | None:
