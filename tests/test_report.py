@@ -8,6 +8,7 @@ skips locally and fails in CI.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -573,3 +574,91 @@ def test_a_single_round_shows_no_spread(project):
     short = [c for c in cells if "8.25" in c or "11.75" in c]
     assert short and all("1 round, no spread" in c and "±" not in c for c in short), short
     assert not any("over 1 rounds" in c for c in cells)
+
+
+# What a reader sees in a table (a label) -> the model key of the metrics files, written out here
+# rather than taken from paper_values.yaml, so a wrong key in either place fails.
+MODEL_OF_LABEL = {"S-GAN": "sgan", "PECNet*": "pecnet", "PECNet": "pecnet", "R-PECNet": "rpecnet",
+                  "Y-net": "ynet"}
+ABLATION_OF_LABEL = {"TTST \u2717  CWS \u2717": "none", "TTST \u2717  CWS \u2713": "cws",
+                     "TTST \u2713  CWS \u2713": "ttst_cws"}
+
+
+def distinct_metrics() -> dict[str, object]:
+    """Every model file of `model_metrics`' contracts, measured, with no two values alike: a cell
+    that reads another key than its own (K = 5 for K = 20, ADE for FDE, another scene, ablation,
+    K_a or dataset) shows a number that cannot be the right one."""
+    values = itertools.count(101.5, 1.25)
+
+    def measured() -> dict:
+        return {key: {"mean": next(values), "std": 0.25} for key in ("ade", "fde", "ade_joint", "fde_joint")}
+
+    def long_term(t_f: int = 30) -> dict:
+        return {"t_f": t_f, "rounds": 3, "main": measured(),
+                "ablation": {name: measured() for name in ("none", "cws", "ttst_cws")},
+                "ka_grid": [{"k_e": k_e, "k_a": k_a, "rounds": 1, **measured()}
+                            for k_e in (10, 20) for k_a in (1, 2, 5)]}
+
+    files: dict[str, object] = {
+        "short_term/sdd.json": {"rounds": 3, "models": {
+            m: {"k20": measured(), "k5": measured()} for m in ("sgan", "pecnet", "ynet")}},
+        "ynet_eval.json": long_term(),
+        "ind_benchmark.json": {**long_term(), "baselines": {
+            m: {"horizon": 30, "k": 20, "rounds": 3, **measured()}
+            for m in ("sgan", "pecnet", "rpecnet", "constant_velocity")}},
+    }
+    for scene in ETHUCY_SCENES:
+        files[f"short_term/ethucy_{scene}.json"] = {"rounds": 3, "models": {
+            m: measured() for m in ("sgan", "pecnet", "ynet")}}
+    for model in ("constant_velocity", "sgan", "pecnet", "rpecnet"):
+        files[f"baselines/{model}_tf30.json"] = {"model": model, "horizon": 30, "k": 20, "rounds": 3,
+                                                 **measured()}
+    return files
+
+
+def expected_cell(files: dict, table: str, row: str, column: "report.Column") -> dict | None:
+    """The metrics node {"ade": {"mean"}, ...} a cell must show, found from what the reader sees."""
+    if table == "sdd_short":
+        model = MODEL_OF_LABEL.get(column.label)
+        k = column.group.split("= ")[1]
+        return files["short_term/sdd.json"]["models"][model][f"k{k}"] if model else None
+    if table == "eth_ucy":
+        model = MODEL_OF_LABEL.get(column.group)
+        return files[f"short_term/ethucy_{row.lower()}.json"]["models"][model] if model else None
+    record = files["ynet_eval.json" if column.group == "SDD" else "ind_benchmark.json"]
+    if table == "ttst":
+        return record["ablation"][ABLATION_OF_LABEL[column.label]]
+    model, k_a = MODEL_OF_LABEL[column.label], int(column.sub.split("= ")[1])
+    if model != "ynet":
+        return files[f"baselines/{model}_tf30.json"] if column.group == "SDD" else record["baselines"][model]
+    if k_a == 1:
+        return record["main"]
+    return next(cell for cell in record["ka_grid"] if (cell["k_e"], cell["k_a"]) == (20, k_a))
+
+
+def test_every_cell_shows_the_value_its_key_names(project):
+    files = distinct_metrics()
+    write_metrics(project / "metrics", data_metrics() | model_metrics() | files)
+    paper = yaml.safe_load(PAPER.read_text())
+    tables = report.build_tables(paper, report.load_metrics(project / "metrics", "metrics"), BANDS)
+    checked = 0
+    for table in tables:
+        for row in table.rows:
+            for column, cell in zip(table.columns, row.cells, strict=True):
+                metric = "ade" if row.label == "ADE" or column.label == "ADE" else "fde"
+                where = (table.key, row.label, column.group, column.label, column.sub)
+                if table.key == "eth_ucy" and row.label == "AVG":
+                    node = [expected_cell(files, table.key, scene, column) for scene in ETHUCY_SCENES]
+                    expected = None if node[0] is None else np.mean([n[metric]["mean"] for n in node])
+                else:
+                    node = expected_cell(files, table.key, row.label, column)
+                    expected = None if node is None else node[metric]["mean"]
+                if expected is None:
+                    assert cell.ours is None, where  # a model this pipeline does not train
+                    continue
+                assert isinstance(cell.ours, report.Measured), (where, cell.ours)
+                assert cell.ours.mean == pytest.approx(expected, abs=1e-12), where
+                if table.key in ("sdd_long", "ttst"):
+                    assert cell.joint.mean == node[f"{metric}_joint"]["mean"], where
+                checked += 1
+    assert checked == 2 * 5 + 2 * 3 * 6 + 2 * 12 + 2 * 5  # every cell of a model we run
