@@ -1,5 +1,7 @@
 """params.yaml must validate against every stage's dataclass; typos must fail loudly."""
 
+import dataclasses
+import json
 from dataclasses import dataclass, field
 
 import pytest
@@ -13,9 +15,24 @@ SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "semantic": SemanticParams}
 
 
+def plain(value):
+    """Tuples as lists and mapping keys as strings, as JSON has them, to compare yaml with objects."""
+    return json.loads(json.dumps(value, default=list))
+
+
+def assert_holds(loaded, cls, raw: dict) -> None:
+    """`loaded` is a `cls` whose every field named in the yaml section `raw` has the yaml value."""
+    assert isinstance(loaded, cls), type(loaded)
+    fields = plain(dataclasses.asdict(loaded))
+    assert raw, "an empty section proves nothing"
+    for key, value in raw.items():
+        assert fields[str(key)] == plain(value), key
+
+
 @pytest.mark.parametrize("key, cls", SECTIONS.items())
 def test_params_yaml_sections_validate(key, cls):
-    load_section(cls, key, read_params())
+    params = read_params()
+    assert_holds(load_section(cls, key, params), cls, params[key])
 
 
 PROFILED = {"ynet": YnetSettings, "eval": EvalParams, "segmentation": SegmentationParams,
@@ -26,13 +43,13 @@ PROFILED = {"ynet": YnetSettings, "eval": EvalParams, "segmentation": Segmentati
 @pytest.mark.parametrize("key, cls", PROFILED.items())
 def test_profiled_sections_validate_for_both_profiles(key, cls, profile):
     params = {**read_params(), "profile": profile}
-    load_profile(cls, key, params)
+    assert_holds(load_profile(cls, key, params), cls, params[key][profile])
 
 
 def test_sampling_sections_validate():
     params = read_params()
-    load_section(TtstParams, "ttst", params)
-    load_section(CwsParams, "cws", params)
+    assert_holds(load_section(TtstParams, "ttst", params), TtstParams, params["ttst"])
+    assert_holds(load_section(CwsParams, "cws", params), CwsParams, params["cws"])
 
 
 @dataclass
