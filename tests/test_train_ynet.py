@@ -1,5 +1,6 @@
 """Y-net training and evaluation stages on a tiny synthetic scene."""
 
+import dataclasses
 import os
 import signal
 
@@ -10,7 +11,9 @@ import torch
 from pipeline.config import CwsParams, EvalParams, TtstParams
 from pipeline.runners import ynet_training as train_ynet
 
-from pipeline.runners.ynet_scoring import evaluate, evaluation_sequence, load_model, sampling_options
+from pipeline.harness.metrics import window_errors
+from pipeline.runners.ynet_scoring import (evaluate, evaluation_sequence, load_model, predict_scenes,
+                                          sampling_options)
 from pipeline.runners.ynet_training import YnetSettings, run_fingerprint, scale_waypoints, train
 from pipeline.preemption import Preemption, StopRequested
 from pipeline.data.window_table import WindowArrays
@@ -142,6 +145,17 @@ def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
     assert first == second
     assert first["ade"]["mean"] > 0 and first["k_e"] == 3 and first["k_a"] == 2
     assert first["fde_joint"]["mean"] >= first["fde"]["mean"]
+    # each round is the shared metric of that round's own samples (seed params.seed + r) ...
+    for r, scores in enumerate(first["per_round"]):
+        paths, goals = predict_scenes(model, scenes, settings, options, params.seed + r, params,
+                                      len(test.future), "check")
+        errors = window_errors(paths, test.future, goals)
+        assert (scores["ade"], scores["fde"]) == (float(errors.ade.mean()), float(errors.fde.mean()))
+    assert first["ade"]["mean"] == np.mean([r["ade"] for r in first["per_round"]])
+    # ... and other seeds sample other futures
+    reseeded = evaluate(model, scenes, settings, options, dataclasses.replace(params, seed=7),
+                        test.future, 2, "c")
+    assert reseeded["per_round"] != first["per_round"]
 
 
 def test_the_grid_cell_of_the_main_setting_equals_sampling_it_afresh(tmp_path):
