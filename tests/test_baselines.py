@@ -15,7 +15,7 @@ import yaml
 
 from pipeline import checkpoints
 from pipeline.harness import baseline_runs, baselines
-from pipeline.stages import evaluate_baseline, train_baseline
+from pipeline.stages import evaluate_baseline, evaluate_pecnet_ka, train_baseline
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.constant_velocity import ConstantVelocity, extrapolate
 from pipeline.harness.baselines.pecnet import Pecnet, PecnetConfig, reversed_windows
@@ -276,6 +276,18 @@ def test_stages_train_and_evaluate(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match="horizon"):  # a table of another horizon
         train_baseline.main(["--model", "sgan", "--horizon", "5", "--table", "tf7.parquet",
                              "--checkpoint-dir", "ck/x", "--metrics", "m/x.json"])
+
+    # evaluate_pecnet_ka: K = k x K_a for each K_a of Y-net's grid; at K_a = 1 it is exactly the
+    # PECNet evaluation of evaluate_baseline (same K, rounds and seeds)
+    params["eval"] = {"cpu": {"ka_grid_k_e": [20], "ka_grid_k_a": [2, 1, 3]}}
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
+    evaluate_pecnet_ka.main(["--table", "tf5.parquet", "--horizon", "5", "--checkpoint-dir", "ck/pecnet_tf5",
+                             "--metrics", "m/pecnet_ka.json"])
+    rows = json.loads((tmp_path / "m/pecnet_ka.json").read_text())
+    assert [(row["k_a"], row["k"]) for row in rows] == [(1, 3), (2, 6), (3, 9)]
+    pecnet = json.loads((tmp_path / "m/pecnet_tf5.json").read_text())
+    assert rows[0]["ade"] == pecnet["ade"] and rows[0]["fde"] == pecnet["fde"]
+    assert rows[1]["ade"] != rows[0]["ade"] and all(row["rounds"] == 2 for row in rows)
 
 
 def test_params_sections_are_strict():

@@ -1,0 +1,90 @@
+"""The Y-net horizon stages (`train_ynet_horizon`, `evaluate_ynet_horizon`) run as DVC runs them, on
+a fixture with params.yaml's real `cpu` settings (one epoch): a horizon the profile trains, scored
+twice with identical metrics, and one it does not train, which says why."""
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+import yaml
+
+from pipeline.data.semantic_maps import quantise
+from pipeline.data.window_table import conform
+from pipeline.stages import evaluate_ynet_horizon, train_ynet_horizon
+
+REPO = Path(__file__).resolve().parents[1]
+IMAGE_HW = (512, 640)  # original pixels; the cpu profile's resize 0.0625 gives 32 x 40 maps
+N_PAST, HORIZON, UNTRAINED = 5, 10, 5
+
+
+def walkers(scene_id: str, split: str, n: int, first_id: int, rng) -> pd.DataFrame:
+    """`n` walkers crossing the scene in straight lines at 1 FPS, N_PAST + HORIZON steps each."""
+    steps = np.arange(N_PAST + HORIZON)
+    rows = []
+    for i in range(n):
+        start = rng.uniform([40, 40], [IMAGE_HW[1] / 3, IMAGE_HW[0] - 40])
+        xy = start + steps[:, None] * rng.uniform([8, -4], [12, 4])
+        rows.append(pd.DataFrame({
+            "window_id": first_id + i, "scene_id": scene_id, "track_id": i, "step": steps,
+            "frame": 30 * steps, "x": xy[:, 0], "y": xy[:, 1], "split": split, "t_f": HORIZON,
+            "source": "raw"}))
+    return pd.concat(rows)
+
+
+def write_fixture(root: Path) -> None:
+    rng = np.random.default_rng(1)
+    tables, maps = [], {}
+    for scene_id, split, n in [("gates_0", "train", 6), ("gates_1", "val", 2), ("gates_2", "test", 3)]:
+        tables.append(walkers(scene_id, split, n, 100 * len(tables), rng))
+        scene, video = scene_id.rsplit("_", 1)
+        folder = root / "sdd" / "annotations" / scene / f"video{video}"
+        folder.mkdir(parents=True)
+        assert cv2.imwrite(str(folder / "reference.jpg"),
+                           rng.integers(0, 255, (*IMAGE_HW, 3), dtype=np.uint8))
+        probs = rng.dirichlet(np.ones(6), size=(IMAGE_HW[0] // 4, IMAGE_HW[1] // 4))
+        maps[scene_id] = quantise(probs.transpose(2, 0, 1).astype(np.float32))
+    conform(pd.concat(tables)).to_parquet(root / f"tf{HORIZON}.parquet")
+    (root / "semantic_maps").mkdir()
+    np.savez_compressed(root / "semantic_maps" / "maps.npz", **maps)
+
+
+def stage_args(horizon: int, *outputs: str) -> list[str]:
+    return ["--horizon", str(horizon), "--table", f"tf{HORIZON}.parquet", "--semantic-maps",
+            "semantic_maps", "--sdd", "sdd", "--checkpoint-dir", f"ck/tf{horizon}", *outputs]
+
+
+def test_a_trained_horizon_is_scored_reproducibly_and_an_untrained_one_says_why(tmp_path, monkeypatch):
+    params = yaml.safe_load((REPO / "params.yaml").read_text())
+    params["profile"] = "cpu"
+    params["ynet"]["cpu"].update(threads=1)
+    params["ynet_horizons"]["cpu"]["epochs"] = {HORIZON: 1}
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
+    write_fixture(tmp_path)
+    monkeypatch.chdir(tmp_path)
+
+    train_ynet_horizon.main(stage_args(HORIZON, "--metrics", "train.json"))
+    trained = json.loads(Path("train.json").read_text())
+    assert trained["trained"] and trained["t_f"] == HORIZON and trained["epochs"] == 1
+    assert trained["waypoints"] == [4, 9]  # the 30-s waypoints [14, 29] scaled to 10 steps
+    assert trained["train_windows"] == 6 and np.isfinite(trained["best_val_ade"])
+
+    scored = []
+    for name in ("a.json", "b.json"):
+        evaluate_ynet_horizon.main(stage_args(HORIZON, "--train-metrics", "train.json", "--metrics", name))
+        scored.append(json.loads(Path(name).read_text()))
+    first, again = ({k: v for k, v in record.items() if "seconds" not in k} for record in scored)
+    assert first == again  # bit-identical metrics from the same checkpoint and seeds
+    assert first["t_f"] == HORIZON and first["n_windows"] == 3
+    rounds = params["ynet_horizons"]["cpu"]["rounds"]
+    assert first["rounds"] == rounds and len(first["main"]["per_round"]) == rounds
+    assert first["main"]["k_e"] == params["eval"]["cpu"]["k_e"] and first["main"]["k_a"] == 1
+    assert 0 < first["main"]["ade"]["mean"] and first["main"]["fde"]["mean"] <= first["main"]["fde_joint"]["mean"]
+
+    train_ynet_horizon.main(stage_args(UNTRAINED, "--metrics", "train_untrained.json"))
+    evaluate_ynet_horizon.main(stage_args(UNTRAINED, "--train-metrics", "train_untrained.json",
+                                          "--metrics", "untrained.json"))
+    untrained = json.loads(Path("untrained.json").read_text())
+    assert untrained["trained"] is False and "cpu profile" in untrained["not_run_reason"]
+    assert not any(Path("ck", f"tf{UNTRAINED}").iterdir())
