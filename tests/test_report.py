@@ -662,3 +662,38 @@ def test_every_cell_shows_the_value_its_key_names(project):
                     assert cell.joint.mean == node[f"{metric}_joint"]["mean"], where
                 checked += 1
     assert checked == 2 * 5 + 2 * 3 * 6 + 2 * 12 + 2 * 5  # every cell of a model we run
+
+
+TEX_LABELS = {"sdd_short": "tab:sdd_short", "eth_ucy": "tab:eth-ucy", "sdd_long": "tab:sdd_long",
+              "ttst": "tab:ttst"}
+ROW_NAMES = r"\b(ADE|FDE|ETH|HOTEL|UNIV|ZARA1|ZARA2|AVG)\b"
+
+
+def tex_rows(tex: str, label: str) -> dict[str, list[float]]:
+    """The numeric rows of the LaTeX table labelled `label`: row name -> its values left to right
+    (every value the paper prints has two decimals; LaTeX arguments such as {1} or {0pt} do not)."""
+    block = next(part for part in tex.split(r"\begin{table") if rf"\label{{{label}}}" in part)
+    body = block.split(r"\begin{tabular}")[1].split(r"\end{tabular}")[0]
+    rows = {}
+    for chunk in body.split(r"\\"):
+        values = [float(v) for v in re.findall(r"\d+\.\d+", chunk)]
+        name = re.search(ROW_NAMES, re.sub(r"\d+\.\d+", "", chunk))
+        if values and name:
+            rows[name.group(1)] = values
+    return rows
+
+
+@pytest.mark.skipif(not PAPER_TEX.exists(), reason=f"{PAPER_TEX} not on this machine")
+def test_paper_values_sit_where_the_papers_tables_print_them():
+    """Transcription, cell by cell: each row of each table, left to right, as the LaTeX has it."""
+    tex, paper = PAPER_TEX.read_text(), yaml.safe_load(PAPER.read_text())
+    for key in ("sdd_short", "sdd_long", "ttst"):
+        rows = tex_rows(tex, TEX_LABELS[key])
+        assert set(rows) == {"ADE", "FDE"}, key
+        for metric in ("ade", "fde"):
+            assert rows[metric.upper()] == [c[metric] for c in paper[key]["columns"]], (key, metric)
+    rows = tex_rows(tex, TEX_LABELS["eth_ucy"])
+    assert list(rows) == ["ETH", "HOTEL", "UNIV", "ZARA1", "ZARA2", "AVG"]
+    for name, values in rows.items():
+        scene = name.lower()
+        assert values == [m[metric][scene] for m in paper["eth_ucy"]["models"] for metric in ("ade", "fde")], name
