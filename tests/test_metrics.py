@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from pipeline.harness.metrics import (METRIC_KEYS, ade_fde, goal_errors, seeded_rounds, step_errors,
-                                      summarize, window_errors)
+                                      summarize, summarize_rounds, window_errors)
 
 # Window 0: sample 0 is best on ADE (errors 0, 4 -> ADE 2, FDE 4), sample 1 best on FDE (3, 3 ->
 # ADE 3, FDE 3): the independent minima (2, 3) mix samples, the joint FDE is 4.
@@ -73,15 +73,34 @@ def test_empty_input_gives_nan_means():
     assert math.isnan(summary["ade"]) and summary["n_windows"] == 0 and summary["k"] == 20
 
 
-@pytest.mark.parametrize("pred, truth, goals", [
-    (PRED[0], TRUTH, None),  # predictions without the sample axis
-    (PRED, TRUTH[:1], None),  # window count differs
-    (PRED, TRUTH[:, :1], None),  # horizon differs
-    (PRED, TRUTH, np.zeros((2, 3, 2))),  # goals with another K
+@pytest.mark.parametrize("pred, truth, goals, message", [
+    (PRED[0], TRUTH, None, r"predictions must be \(N, K, n_f, 2\), got \(2, 2, 2\)"),  # no sample axis
+    (PRED, TRUTH[:1], None, r"ground truth \(1, 2, 2\) does not match predictions"),  # window count
+    (PRED, TRUTH[:, :1], None, r"ground truth \(2, 1, 2\) does not match"),  # horizon differs
+    (PRED, TRUTH, np.zeros((2, 3, 2)), "goals give 3 samples, paths 2"),  # goals with another K
+    (PRED, TRUTH, np.zeros((1, 2, 2)), r"goals must be \(N, K, 2\) with N = 2"),  # another N
+    (PRED, TRUTH, np.zeros((2, 2, 3)), r"goals must be \(N, K, 2\)"),  # not 2-D points
+    (PRED, TRUTH, np.zeros((2, 2)), r"goals must be \(N, K, 2\)"),  # no sample axis
 ])
-def test_mismatched_shapes_fail(pred, truth, goals):
-    with pytest.raises(ValueError):
+def test_mismatched_shapes_fail(pred, truth, goals, message):
+    with pytest.raises(ValueError, match=message):
         window_errors(pred, truth, goals)
+
+
+def test_the_final_step_is_the_last_of_any_horizon():
+    """Three steps, so the last step is not also the second (as it is with two)."""
+    truth = np.array([[[1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]])  # (1, 3, 2)
+    pred = np.array([[[[1.0, 0.0], [2.0, 3.0], [3.0, 4.0]]]])  # (1, 1, 3, 2): off by 0, 3, 4
+    errors = window_errors(pred, truth)
+    assert errors.fde[0] == 4.0 and errors.ade[0] == pytest.approx(7 / 3)
+    goals = np.array([[[3.0, 5.0]]])  # 5 from the final point, 5.0990 from the second
+    np.testing.assert_array_equal(goal_errors(goals, truth), [[5.0]])
+    assert window_errors(pred, truth, goals).fde[0] == 5.0
+
+
+def test_a_tensor_that_requires_grad_is_scored_too():
+    pred = torch.tensor(PRED, dtype=torch.float64, requires_grad=True)
+    assert ade_fde(pred, TRUTH) == ade_fde(PRED, TRUTH)
 
 
 def test_seeded_rounds_seed_each_round_and_summarize_over_them():
@@ -106,5 +125,7 @@ def test_seeded_rounds_seed_each_round_and_summarize_over_them():
 def test_one_round_has_zero_spread_and_no_round_is_an_error():
     record = seeded_rounds(lambda seed: window_errors(PRED, TRUTH), rounds=1, seed=0)
     assert record["fde"]["std"] == 0.0 and record["fde"]["mean"] == ade_fde(PRED, TRUTH)["fde"]
-    with pytest.raises(ValueError, match="rounds"):
+    with pytest.raises(ValueError, match="rounds must be >= 1, got 0"):
         seeded_rounds(lambda seed: window_errors(PRED, TRUTH), rounds=0, seed=0)
+    with pytest.raises(ValueError, match="no rounds to summarize"):
+        summarize_rounds([])
