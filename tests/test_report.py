@@ -697,3 +697,41 @@ def test_paper_values_sit_where_the_papers_tables_print_them():
     for name, values in rows.items():
         scene = name.lower()
         assert values == [m[metric][scene] for m in paper["eth_ucy"]["models"] for metric in ("ade", "fde")], name
+
+
+def test_provenance_counts_code_and_params_changes_never_outputs(tmp_path):
+    """Outputs of the pipeline (anything dvc.lock records, dvc.lock itself, the report's own
+    outputs) change whenever a stage runs; only code or params.yaml make the numbers uncommitted."""
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True)
+
+    git("init", "-q")
+    lock = {"stages": {"evaluate_ynet": {"outs": [{"path": "metrics/ynet_eval.json"}]},
+                       "tracks": {"outs": [{"path": "data/tracks"}]}}}
+    for rel, text in {"pipeline/a.py": "x = 1\n", "params.yaml": "a: 1\n", "metrics/ynet_eval.json": "{}",
+                      "dvc.lock": yaml.safe_dump(lock), "reports/index.html": "<p>"}.items():
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text(text)
+    git("add", "-A")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "c")
+    outputs = [*report.lock_outputs(tmp_path / "dvc.lock"), "reports/index.html"]
+    assert outputs == ["metrics/ynet_eval.json", "data/tracks", "reports/index.html"]
+    assert report.git_state(tmp_path, outputs)["dirty"] is False
+
+    (tmp_path / "metrics/ynet_eval.json").write_text('{"ade": 1}')
+    (tmp_path / "dvc.lock").write_text(yaml.safe_dump({**lock, "schema": "2.0"}))
+    (tmp_path / "reports/index.html").write_text("<p>new")
+    (tmp_path / "data/tracks").mkdir(parents=True)
+    (tmp_path / "data/tracks/t.parquet").write_text("rows")
+    state = report.git_state(tmp_path, outputs)
+    assert state["dirty"] is False and state["code_changes"] == [] and state["output_changes"] == 4
+
+    (tmp_path / "params.yaml").write_text("a: 2\n")
+    (tmp_path / "pipeline/a.py").write_text("x = 2\n")
+    (tmp_path / "pipeline/b.py").write_text("y = 1\n")
+    state = report.git_state(tmp_path, outputs)
+    assert state["dirty"] is True and state["params_changed"] is True
+    assert sorted(state["code_changes"]) == ["pipeline/a.py", "pipeline/b.py"]
+    assert report.porcelain_paths(["R  old.py -> new.py", " M a b.py", "?? data/"]) == [
+        "new.py", "a b.py", "data/"]
+    assert report.is_output("data/", ["data/tracks"]) and not report.is_output("database.py", ["data"])

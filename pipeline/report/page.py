@@ -713,18 +713,53 @@ def rel_src(path: Path, html_dir: Path) -> str:
 # Provenance
 
 
-def git_state(repo: Path) -> dict[str, Any]:
-    """Commit and dirtiness, read-only (no index refresh), or why it is unknown."""
+def porcelain_paths(lines: Iterable[str]) -> list[str]:
+    """The paths of `git status --porcelain` lines ("XY path" or "XY old -> new": the new one)."""
+    return [line[3:].split(" -> ")[-1].strip('"') for line in lines if len(line) > 3]
+
+
+def lock_outputs(lock_path: Path) -> list[str]:
+    """Every output path dvc.lock records (nothing if it is missing or unreadable)."""
+    try:
+        lock = yaml.safe_load(lock_path.read_text()) or {}
+    except (OSError, yaml.YAMLError):
+        return []
+    return [str(out["path"]) for stage in (lock.get("stages") or {}).values()
+            for out in stage.get("outs") or [] if "path" in out]
+
+
+def is_output(path: str, outputs: Iterable[str]) -> bool:
+    """`path` (a file or, untracked, a folder ending in "/") is dvc.lock or lies in an output."""
+    path = path.rstrip("/")
+    return path == "dvc.lock" or any(path == out.rstrip("/") or path.startswith(out.rstrip("/") + "/")
+                                     or out.startswith(path + "/") for out in outputs)
+
+
+def classify_changes(paths: Iterable[str], outputs: Iterable[str]) -> dict[str, Any]:
+    """Changed paths split into code, params.yaml and pipeline outputs: only the first two mean
+    the numbers may not come from the commit (outputs change whenever a stage runs)."""
+    outputs = list(outputs)
+    paths = list(paths)
+    code = [p for p in paths if p != "params.yaml" and not is_output(p, outputs)]
+    return {"code_changes": code, "params_changed": "params.yaml" in paths,
+            "output_changes": sum(1 for p in paths if p != "params.yaml" and is_output(p, outputs))}
+
+
+def git_state(repo: Path, outputs: Iterable[str] = ()) -> dict[str, Any]:
+    """Commit, and whether code or params.yaml differ from it, read-only (no index refresh), or
+    why it is unknown. `outputs`: paths that only the pipeline writes (never make it "dirty")."""
     def git(*args: str) -> str:
         return subprocess.run(["git", "--no-optional-locks", "-C", str(repo), *args], check=True,
-                              capture_output=True, text=True, timeout=30).stdout.strip()
+                              capture_output=True, text=True, timeout=30).stdout
     try:
-        commit = git("rev-parse", "HEAD")
-        changes = git("status", "--porcelain").splitlines()
+        commit = git("rev-parse", "HEAD").strip()
+        changes = classify_changes(porcelain_paths(git("status", "--porcelain").splitlines()), outputs)
     except (OSError, subprocess.SubprocessError) as e:
         return {"error": f"git state unknown: {e.__class__.__name__}: {str(e).strip()[:200]}",
-                "commit": None, "dirty": None, "changes": []}
-    return {"error": None, "commit": commit, "dirty": bool(changes), "changes": changes}
+                "commit": None, "dirty": None, "code_changes": [], "params_changed": None,
+                "output_changes": 0}
+    return {"error": None, "commit": commit,
+            "dirty": bool(changes["code_changes"]) or changes["params_changed"], **changes}
 
 
 def machine() -> dict[str, Any]:
@@ -876,6 +911,7 @@ class Inputs:
     manifests: Path
     dvc_lock: Path
     repo: Path = field(default_factory=Path.cwd)
+    own_outputs: tuple[str, ...] = ()  # the report's outputs, relative to `repo`
 
 
 @dataclass(frozen=True)
@@ -928,7 +964,8 @@ def data_section(store: MetricsStore, scene_counts: Path) -> dict[str, Any]:
 def provenance_section(inputs: Inputs, params: Mapping[str, Any], store: MetricsStore) -> dict[str, Any]:
     params_text = (yaml.safe_dump(params, sort_keys=True, default_flow_style=None, width=100)
                    if params else "(dvc.lock records no params yet)")
-    return {"git": git_state(inputs.repo), "params_text": params_text,
+    outputs = [*lock_outputs(inputs.dvc_lock), *inputs.own_outputs]
+    return {"git": git_state(inputs.repo, outputs), "params_text": params_text,
             "profiles": profiles(params, store), "manifests": manifest_checksums(inputs.manifests),
             "raw_hashes": raw_data_hashes(inputs.dvc_lock), "machine": machine(),
             "timings": stage_timings(store),

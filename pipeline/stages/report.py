@@ -17,6 +17,7 @@ Also writes `--headline`, the small ADE / FDE files `dvc metrics show` prints. P
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from pipeline.config import ReportParams, load_section, read_params
@@ -41,8 +42,10 @@ def main(argv: list[str] | None = None) -> None:
                         help="folder of the headline metrics (ADE / FDE per table and model)")
     args = parser.parse_args(argv)
     report_params = load_section(ReportParams, "report", read_params(args.params))
+    own_outputs = tuple(Path(os.path.relpath(path.resolve(), Path.cwd())).as_posix()
+                        for path in (args.out, args.figures, args.plots, args.headline))
     inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.segmentation_figures,
-                    args.qualitative, args.manifests, args.dvc_lock)
+                    args.qualitative, args.manifests, args.dvc_lock, own_outputs=own_outputs)
     write_report(inputs, lock_params(args.dvc_lock), report_params, args.out, args.figures,
                  args.plots, args.headline)
 
