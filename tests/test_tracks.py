@@ -1,6 +1,9 @@
+import re
+
 import pytest
 
 from pipeline.data.tracks import AnnotationError, build_tracks, parse_annotations
+from pipeline.stages import tracks as tracks_stage
 from tests.fixtures import annotation_lines, write_annotations
 
 
@@ -58,3 +61,27 @@ def test_empty_file_and_missing_annotations(tmp_path):
         build_tracks(tmp_path)
     with pytest.raises(AnnotationError, match="no \\*/video\\*/annotations.txt"):
         build_tracks(tmp_path / "elsewhere")
+
+
+@pytest.mark.parametrize("extra, message", [
+    ('1 10 20 30 40 1 0 0 0 "Pedestrian"', r":2, 4: track 1 has two different boxes in frame 1"),
+    ('1 31 34 41 54 1 0 0 0 "Pedestrian"', r":2, 4: track 1 has the same box twice in frame 1"),
+    ('2 30 20 10 40 1 0 0 0 "Pedestrian"', r":4: impossible box of track 2 in frame 1: x 30..10"),
+    ('2 10 20 30 20 1 0 0 0 "Pedestrian"', r":4: impossible box of track 2 in frame 1: x 10..30, y 20..20"),
+    ('1 10 20 36 44 9 0 0 0 "Biker"', r":4: track 1 is labelled 'Biker' here but 'Pedestrian' on line 1"),
+    ('3 10 20 36 44 9 0 0 0 "Biker"', None),  # another track, another label: fine
+])
+def test_rows_that_contradict_each_other_stop_the_stage(tmp_path, monkeypatch, extra, message):
+    """Each caught by `tracks`, which names the file and lines and writes nothing."""
+    lines = annotation_lines(1, range(3), 10, 20, 26, 24) + [extra]
+    path = write_annotations(tmp_path / "sdd", "gates", 2, lines)
+    if message is None:
+        assert len(parse_annotations(path)) == 4
+        return
+    with pytest.raises(AnnotationError, match=rf"^{re.escape(str(path))}{message}"):
+        parse_annotations(path)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "params.yaml").write_text("compat: {drop_first_row: false}\n")
+    with pytest.raises(SystemExit, match=rf"tracks: {re.escape(str(path))}{message}"):
+        tracks_stage.main(["--sdd", str(tmp_path / "sdd"), "--out", "out/sdd.parquet"])
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

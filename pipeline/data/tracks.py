@@ -2,8 +2,9 @@
 
 Input rows are `track xmin ymin xmax ymax frame lost occluded generated "label"` at 30 FPS.
 Output: one row per annotation (none dropped unless `compat.drop_first_row` asks for the
-authors' quirk), positions as box centres in original pixels. A malformed line stops the stage
-with the file and line number.
+authors' quirk), positions as box centres in original pixels. A malformed line, or rows that
+cannot all be true (`contradiction`: one track with two boxes in one frame, a box whose max is not
+beyond its min, one track under two labels), stops the stage with the file and line numbers.
 """
 
 from __future__ import annotations
@@ -68,7 +69,37 @@ def parse_annotations(path: Path) -> pd.DataFrame:
         truncated = f.read(1) != b"\n"
     if bad.any() or truncated:
         raise AnnotationError(first_bad_line(path))
+    problem = contradiction(table)
+    if problem:
+        raise AnnotationError(f"{path}:{problem}")
     return table
+
+
+def contradiction(table: pd.DataFrame) -> str | None:
+    """The first thing in one file's rows (RAW_COLUMNS, row i = line i + 1) that cannot be true,
+    as "<line(s)>: what", or None."""
+    line = pd.Series(np.arange(1, len(table) + 1), index=table.index)
+    empty = (table["xmax"] <= table["xmin"]) | (table["ymax"] <= table["ymin"])
+    if empty.any():
+        row = table[empty].iloc[0]
+        return (f"{line[empty].iloc[0]}: impossible box of track {row.track_id} in frame "
+                f"{row.frame}: x {row.xmin}..{row.xmax}, y {row.ymin}..{row.ymax} (max must exceed min)")
+    twice = table.duplicated(["track_id", "frame"], keep=False)
+    if twice.any():
+        first = table[twice].iloc[0]
+        same = twice & (table["track_id"] == first.track_id) & (table["frame"] == first.frame)
+        lines = ", ".join(str(n) for n in line[same])
+        boxes = table.loc[same, ["xmin", "ymin", "xmax", "ymax"]].drop_duplicates()
+        what = "two different boxes" if len(boxes) > 1 else "the same box twice"
+        return f"{lines}: track {first.track_id} has {what} in frame {first.frame}"
+    labels = table.groupby("track_id")["label"].transform("first")
+    relabelled = table["label"] != labels
+    if relabelled.any():
+        row = table[relabelled].iloc[0]
+        first_line = line[(table["track_id"] == row.track_id)].iloc[0]
+        return (f"{line[relabelled].iloc[0]}: track {row.track_id} is labelled {row.label!r} here "
+                f"but {labels[relabelled].iloc[0]!r} on line {first_line}")
+    return None
 
 
 def video_tracks(table: pd.DataFrame, scene: str, video: int, drop_first_row: bool) -> pd.DataFrame:
