@@ -85,3 +85,11 @@ def test_rows_that_contradict_each_other_stop_the_stage(tmp_path, monkeypatch, e
     with pytest.raises(SystemExit, match=rf"tracks: {re.escape(str(path))}{message}"):
         tracks_stage.main(["--sdd", str(tmp_path / "sdd"), "--out", "out/sdd.parquet"])
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_a_number_beyond_64_bits_names_file_and_line(tmp_path):
+    lines = annotation_lines(1, range(3), 0, 0, 1, 0)
+    lines.insert(1, '99999999999999999999 10 20 30 40 5 0 0 0 "Pedestrian"')
+    path = write_annotations(tmp_path, "gates", 2, lines)
+    with pytest.raises(AnnotationError, match=rf"^{re.escape(str(path))}:2: a number beyond 64-bit integers"):
+        parse_annotations(path)

@@ -29,6 +29,7 @@ _VALID_LINE = re.compile(
     r'^\d+ -?\d+ -?\d+ -?\d+ -?\d+ \d+ [01] [01] [01] "(' + "|".join(LABELS) + r')"$'
 )
 _VIDEO_DIR = re.compile(r"^video(\d+)$")
+INT64_MAX = 2**63 - 1
 
 
 
@@ -44,6 +45,8 @@ def first_bad_line(path: Path) -> str:
             stripped = line.rstrip("\n").rstrip("\r")
             if not _VALID_LINE.match(stripped):
                 return f"{path}:{number}: malformed annotation line {stripped[:120]!r}"
+            if any(abs(int(field)) > INT64_MAX for field in stripped.split(" ")[:-1]):
+                return f"{path}:{number}: a number beyond 64-bit integers {stripped[:120]!r}"
             if not line.endswith("\n"):
                 return f"{path}:{number}: file ends mid-line (truncated?) {stripped[:120]!r}"
     return f"{path}: unreadable annotations"
@@ -57,7 +60,7 @@ def parse_annotations(path: Path) -> pd.DataFrame:
     try:
         table = pd.read_csv(path, sep=" ", header=None, names=RAW_COLUMNS, dtype=int_columns,
                             quotechar='"', engine="c", na_filter=False)
-    except (ValueError, pd.errors.ParserError) as e:
+    except (ValueError, OverflowError, pd.errors.ParserError) as e:
         raise AnnotationError(first_bad_line(path)) from e
     bad = (
         ~table["label"].isin(LABELS)
