@@ -735,3 +735,27 @@ def test_provenance_counts_code_and_params_changes_never_outputs(tmp_path):
     assert report.porcelain_paths(["R  old.py -> new.py", " M a b.py", "?? data/"]) == [
         "new.py", "a b.py", "data/"]
     assert report.is_output("data/", ["data/tracks"]) and not report.is_output("database.py", ["data"])
+
+
+def test_metrics_of_another_profile_or_k_are_shown_but_not_compared(project):
+    files = data_metrics() | model_metrics()
+    files["ynet_eval.json"] = {**files["ynet_eval.json"], "profile": "paper"}  # the lock says cpu
+    files["baselines/sgan_tf30.json"] = {**baseline("sgan", 30, 60.0), "k": 3}
+    write_metrics(project / "metrics", files)
+    paper = yaml.safe_load(PAPER.read_text())
+    store = report.load_metrics(project / "metrics", "metrics")
+    tables = {t.key: t for t in report.build_tables(paper, store, BANDS, profile="cpu")}
+    long_term = tables["sdd_long"]
+    kinds = {(c.group, c.label, c.sub): cell.kind for c, cell in zip(long_term.columns, long_term.rows[0].cells)}
+    assert kinds[("SDD", "Y-net", "K_a = 1")] == kinds[("SDD", "Y-net", "K_a = 2")] == "mismatch"
+    assert kinds[("SDD", "S-GAN", "K_a = 1")] == "mismatch" and kinds[("SDD", "PECNet", "K_a = 1")] == "measured"
+    sgan = long_term.rows[0].cells[0]
+    assert sgan.diff is None and sgan.band == "" and sgan.ours.mean == 60.0
+    assert sgan.ours.mismatch == "measured with k = 3; this cell is for k = 20"
+    assert {cell.kind for cell in tables["ttst"].rows[0].cells[:3]} == {"mismatch"}
+    assert report.summarize(long_term).counts["mismatch"] == 2 * 4  # ADE, FDE x Y-net K_a 1, 2, 5 and S-GAN
+    headline = report.headline_metrics(tables.values(), [])
+    assert not any("y_net" in name and "sdd" in name and "table3" in name for name in headline)
+    html = run_report(project).read_text()  # the lock of the fixture says profile cpu
+    assert "measured with profile = paper; this cell is for profile = cpu" in html
+    assert 'data-kind="mismatch"' in html

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, horizon_mismatch,
-                                     is_number, k_note, load_metrics, lookup, lookup_grid)
+                                     is_number, load_metrics, lookup, lookup_grid, settings_mismatch)
 
 
 def store(**files) -> MetricsStore:
@@ -58,7 +58,7 @@ def test_as_measured():
     assert as_measured(math.nan, 3, "f: a") == Absent("f: a is not a finite number (nan)", "invalid")
 
 
-def test_horizon_mismatch_and_k_note():
+def test_horizon_and_settings_mismatch():
     files = store()
     assert horizon_mismatch(files, "f.json", {"t_f": 30}, None) is None
     assert horizon_mismatch(files, "f.json", [{"t_f": 20}], 30) is None
@@ -67,8 +67,12 @@ def test_horizon_mismatch_and_k_note():
     assert horizon_mismatch(files, "f.json", {"horizon": 20}, 30) == Absent(
         "m/f.json is for t_f = 20 s, not 30 s", "invalid")
     assert horizon_mismatch(files, "f.json", {"t_f": 20, "horizon": 30}, 30).reason.endswith("20 s, not 30 s")
-    assert k_note({"k": 3}, None) == k_note([], 20) == k_note({"ade": 1}, 20) == k_note({"k": 20}, 20) == ""
-    assert k_note({"k": 3}, 20) == "K = 3 here, paper K = 20"
+    assert settings_mismatch({"k": 3}, {}) == settings_mismatch({}, {"k": 20}) == ""
+    assert settings_mismatch({"k": 20, "profile": "cpu"}, {"k": 20, "profile": "cpu"}) == ""
+    assert settings_mismatch({"k": 3, "profile": "cpu", "k_e": 5}, {"k": 20, "profile": "cpu", "k_e": 5}) == (
+        "measured with k = 3; this cell is for k = 20")
+    assert settings_mismatch({"profile": "paper", "k_e": 10}, {"profile": "cpu", "k_e": 20}) == (
+        "measured with profile = paper, k_e = 10; this cell is for profile = cpu, k_e = 20")
 
 
 def test_lookup_follows_the_path_and_says_why_not():
@@ -79,7 +83,14 @@ def test_lookup_follows_the_path_and_says_why_not():
     assert lookup(files, "e.json", ("main", "ade")) == Measured(4.0, 0.5, 3, "m/e.json: main.ade")
     assert lookup(files, "e.json", ("ablation", "none", "ade")) == Measured(
         6.0, None, 1, "m/e.json: ablation.none.ade")  # the innermost round count applies
-    assert lookup(files, "e.json", ("main", "ade"), t_f=30, k=20).note == "K = 5 here, paper K = 20"
+    assert lookup(files, "e.json", ("main", "ade"), t_f=30, expect={"k": 20}).mismatch == (
+        "measured with k = 5; this cell is for k = 20")
+    assert lookup(files, "e.json", ("main", "ade"), expect={"k": 5, "profile": "cpu"}).mismatch == ""
+    inner = store(f={"profile": "cpu", "k_e": 20, "main": {"k_e": 10, "ade": 1.0}})
+    assert lookup(inner, "f.json", ("main", "ade"), expect={"k_e": 20, "profile": "cpu"}).mismatch == (
+        "measured with k_e = 10; this cell is for k_e = 20")  # the innermost setting counts
+    assert lookup(inner, "f.json", ("main", "ade"), expect={"profile": "paper"}).mismatch.startswith(
+        "measured with profile = cpu")
     assert lookup(files, "e.json", ("main", "ade"), t_f=10) == Absent(
         "m/e.json is for t_f = 30 s, not 10 s", "invalid")
     assert lookup(files, "e.json", ("main", "fde")) == Absent("m/e.json has no main.fde", "invalid")
@@ -111,3 +122,7 @@ def test_lookup_grid_finds_the_matching_entry():
     assert lookup_grid(files, "g.json", "ka_grid", {"k_e": 20}, "ade", t_f=60) == Absent(
         "m/g.json is for t_f = 30 s, not 60 s", "invalid")
     assert lookup_grid(files, "x.json", "ka_grid", {"k_e": 20}, "ade").kind == "missing"
+    profiled = store(p={"profile": "paper", "ka_grid": [{"k_e": 20, "k_a": 2, "ade": 3.0}]})
+    assert lookup_grid(profiled, "p.json", "ka_grid", {"k_a": 2}, "ade", expect={"profile": "cpu"}).mismatch == (
+        "measured with profile = paper; this cell is for profile = cpu")
+    assert lookup_grid(profiled, "p.json", "ka_grid", {"k_a": 2}, "ade", expect={"profile": "paper"}).mismatch == ""

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +31,7 @@ class Measured:
     rounds: int | None
     source: str
     note: str = ""
+    mismatch: str = ""  # measured under other settings than the cell's (profile, K): not compared
 
 
 @dataclass(frozen=True)
@@ -95,37 +96,50 @@ def horizon_mismatch(store: MetricsStore, rel: str, record: Any, t_f: int | None
     return None
 
 
-def k_note(record: Any, k: int | None) -> str:
-    """Say so when a file's K differs from the paper's (the value is still ours, measured)."""
-    if k is None or not isinstance(record, dict) or record.get("k") in (None, k):
+def settings_mismatch(found: Mapping[str, Any], expected: Mapping[str, Any]) -> str:
+    """"" when every setting a file records agrees with the cell's, else what differs (a setting
+    the file does not record is not held against it)."""
+    differ = [key for key, value in expected.items() if key in found and found[key] != value]
+    if not differ:
         return ""
-    return f"K = {record['k']} here, paper K = {k}"
+    return (f"measured with {', '.join(f'{k} = {found[k]}' for k in differ)}; this cell is for "
+            f"{', '.join(f'{k} = {expected[k]}' for k in differ)}")
 
 
 def lookup(store: MetricsStore, rel: str, path: tuple[str, ...], t_f: int | None = None,
-           k: int | None = None) -> Measured | Absent:
-    """The value at `path` in file `rel`, or why it is not there."""
+           expect: Mapping[str, Any] | None = None) -> Measured | Absent:
+    """The value at `path` in file `rel`, or why it is not there. `expect`: the settings the cell
+    is for (e.g. profile, k, k_e); the file's own, read along the path (the innermost wins), must
+    agree, or the value comes back marked with the `mismatch`."""
     record = store.record(rel)
     if isinstance(record, Absent):
         return record
     mismatch = horizon_mismatch(store, rel, record, t_f)
     if mismatch:
         return mismatch
-    node, rounds = record, None
+    node, rounds, found = record, None, {}
     for key in path:
         if isinstance(node, dict) and isinstance(node.get("not_run_reason"), str):
             return Absent(node["not_run_reason"], "status")  # a stage (or one model in it) said why
         if not isinstance(node, dict) or key not in node:
             return Absent(f"{store.where(rel)} has no {'.'.join(path)}", "invalid")
         rounds = node.get("rounds", rounds)  # the innermost count applies (an ablation may differ)
+        found |= {name: node[name] for name in (expect or {}) if name in node}
         node = node[key]
-    return as_measured(node, rounds, f"{store.where(rel)}: {'.'.join(path)}",
-                       k_note(record, k))
+    value = as_measured(node, rounds, f"{store.where(rel)}: {'.'.join(path)}")
+    return with_mismatch(value, found, expect)
+
+
+def with_mismatch(value: Measured | Absent, found: Mapping[str, Any],
+                  expect: Mapping[str, Any] | None) -> Measured | Absent:
+    mismatch = settings_mismatch(found, expect or {})
+    return replace(value, mismatch=mismatch) if mismatch and isinstance(value, Measured) else value
 
 
 def lookup_grid(store: MetricsStore, rel: str, grid: str, match: Mapping[str, int], metric: str,
-                t_f: int | None = None) -> Measured | Absent:
-    """`metric` of the entry of list `grid` in `rel` whose keys equal `match` (e.g. k_e, k_a)."""
+                t_f: int | None = None, expect: Mapping[str, Any] | None = None) -> Measured | Absent:
+    """`metric` of the entry of list `grid` in `rel` whose keys equal `match` (e.g. k_e, k_a);
+    `expect` as in `lookup` (read from the file, then the entry)."""
     record = store.record(rel)
     if isinstance(record, Absent):
         return record
@@ -139,6 +153,8 @@ def lookup_grid(store: MetricsStore, rel: str, grid: str, match: Mapping[str, in
     for row in rows:
         if isinstance(row, dict) and all(row.get(key) == value for key, value in match.items()):
             rounds = row.get("rounds", record.get("rounds") if isinstance(record, dict) else None)
-            return as_measured(row.get(metric), rounds,
-                               f"{store.where(rel)}: {grid}[{wanted}].{metric}")
+            found = {name: node[name] for node in (record, row) if isinstance(node, dict)
+                     for name in (expect or {}) if name in node}
+            value = as_measured(row.get(metric), rounds, f"{store.where(rel)}: {grid}[{wanted}].{metric}")
+            return with_mismatch(value, found, expect)
     return Absent(f"{store.where(rel)} has no {grid} entry with {wanted}", "invalid")

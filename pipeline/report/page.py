@@ -91,7 +91,9 @@ class Cell:
     def kind(self) -> str:
         if self.ours is None:
             return "paper-only"
-        return "measured" if isinstance(self.ours, Measured) else "absent"
+        if isinstance(self.ours, Measured):
+            return "mismatch" if self.ours.mismatch else "measured"
+        return "absent"
 
 
 @dataclass(frozen=True)
@@ -153,7 +155,7 @@ def band(diff: float | None, params: ReportParams) -> str:
 
 def compare(paper: float | None, ours: Measured | Absent | None, params: ReportParams,
             joint: Measured | Absent | None = None) -> Cell:
-    if not isinstance(ours, Measured):
+    if not isinstance(ours, Measured) or ours.mismatch:  # nothing, or not comparable
         return Cell(paper, ours)
     diff = relative_difference(ours.mean, paper)
     return Cell(paper, ours, diff, band(diff, params), joint if isinstance(joint, Measured) else None)
@@ -164,7 +166,14 @@ def ours_if_trained(model: str, find) -> Measured | Absent | None:
     return find() if model in PIPELINE_MODELS else None
 
 
-def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams) -> Table:
+def expected(profile: str | None, **settings: int) -> dict[str, Any]:
+    """The settings a cell is for: the profile the report's stages ran under (when known) and the
+    table's K values."""
+    return ({"profile": profile} if profile else {}) | settings
+
+
+def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
+                    profile: str | None = None) -> Table:
     """Table 1: short-term SDD, K = 20 and K = 5 groups."""
     cols = spec["columns"]
     rows = []
@@ -172,7 +181,8 @@ def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams) ->
         cells = []
         for c in cols:
             path = ("models", c["model"], f"k{c['k']}", metric)
-            ours = ours_if_trained(c["model"], lambda p=path: lookup(store, "short_term/sdd.json", p))
+            ours = ours_if_trained(c["model"], lambda p=path: lookup(store, "short_term/sdd.json", p,
+                                                                     expect=expected(profile)))
             cells.append(compare(c[metric], ours, params))
         rows.append(Row(metric.upper(), tuple(cells)))
     return Table("sdd_short", spec["number"], spec["title"],
@@ -194,7 +204,8 @@ def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportPar
     return compare(paper, ours, params)
 
 
-def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams) -> Table:
+def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
+                  profile: str | None = None) -> Table:
     """Table 2: ETH/UCY per scene (rows) and model x metric (columns), plus the average."""
     columns, per_scene = [], {scene: [] for scene in spec["scenes"]}
     for m in spec["models"]:
@@ -203,7 +214,7 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams) -> T
             for scene in spec["scenes"]:
                 rel = f"short_term/ethucy_{scene}.json"
                 ours = ours_if_trained(m["model"], lambda r=rel, mo=m["model"], me=metric:
-                                       lookup(store, r, ("models", mo, me)))
+                                       lookup(store, r, ("models", mo, me), expect=expected(profile)))
                 per_scene[scene].append(compare(m[metric][scene], ours, params))
     rows = [Row(spec["scene_labels"][s], tuple(cells)) for s, cells in per_scene.items()]
     avg_paper = [m[metric].get("avg") for m in spec["models"] for metric in METRICS]
@@ -220,33 +231,38 @@ def long_term_file(dataset: str) -> str:
     return "ynet_eval.json" if dataset == "sdd" else f"{dataset}_benchmark.json"
 
 
-def find_long_term(store: MetricsStore, c: Mapping, metric: str) -> Measured | Absent:
+def find_long_term(store: MetricsStore, c: Mapping, metric: str,
+                   profile: str | None = None) -> Measured | Absent:
     """Table 3's cell: baselines from their t_f = 30 file (SDD) or ind_benchmark.json, Y-net by K_a."""
     model, k_a, rel = c["model"], c["k_a"], long_term_file(c["dataset"])
     if model != "ynet":
         if c["dataset"] == "sdd":
             return lookup(store, f"baselines/{model}_tf{LONG_TERM_TF}.json", (metric,),
-                          t_f=LONG_TERM_TF, k=LONG_TERM_KE)
-        return lookup(store, rel, ("baselines", model, metric), t_f=LONG_TERM_TF)
+                          t_f=LONG_TERM_TF, expect={"k": LONG_TERM_KE})
+        return lookup(store, rel, ("baselines", model, metric), t_f=LONG_TERM_TF,
+                      expect={"k": LONG_TERM_KE})
     if k_a == 1:
-        return lookup(store, rel, ("main", metric), t_f=LONG_TERM_TF)
+        return lookup(store, rel, ("main", metric), t_f=LONG_TERM_TF,
+                      expect=expected(profile, k_e=LONG_TERM_KE, k_a=1))
     return lookup_grid(store, rel, "ka_grid", {"k_e": LONG_TERM_KE, "k_a": k_a}, metric,
-                       t_f=LONG_TERM_TF)
+                       t_f=LONG_TERM_TF, expect=expected(profile))
 
 
-def find_long_term_joint(store: MetricsStore, c: Mapping, metric: str) -> Measured | Absent:
+def find_long_term_joint(store: MetricsStore, c: Mapping, metric: str,
+                         profile: str | None = None) -> Measured | Absent:
     """The joint variant (ADE and FDE from one sample), shown under ours where recorded."""
-    return find_long_term(store, c, f"{metric}_joint")
+    return find_long_term(store, c, f"{metric}_joint", profile)
 
 
-def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams) -> Table:
+def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams,
+                   profile: str | None = None) -> Table:
     """Table 3: long term (t_f = 30 s), SDD and inD, baselines and Y-net at K_a = 1, 2, 5."""
     cols = spec["columns"]
     rows = []
     for metric in METRICS:
         cells = [compare(c[metric],
-                         ours_if_trained(c["model"], lambda c=c: find_long_term(store, c, metric)),
-                         params, find_long_term_joint(store, c, metric))
+                         ours_if_trained(c["model"], lambda c=c: find_long_term(store, c, metric, profile)),
+                         params, find_long_term_joint(store, c, metric, profile))
                  for c in cols]
         rows.append(Row(metric.upper(), tuple(cells)))
     columns = tuple(Column(DATASETS[c["dataset"]], c["label"], f"K_a = {c['k_a']}") for c in cols)
@@ -257,7 +273,8 @@ def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams) -> 
                  spec["unit"], 2, columns, tuple(rows))
 
 
-def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams) -> Table:
+def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams,
+               profile: str | None = None) -> Table:
     """Table 4: Y-net with and without TTST and CWS, SDD and inD."""
     cols = spec["columns"]
     rows = []
@@ -265,8 +282,10 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams) -> Tabl
         cells = []
         for c in cols:
             rel, name = long_term_file(c["dataset"]), c["ablation"]
-            ours = lookup(store, rel, ("ablation", name, metric), t_f=LONG_TERM_TF)
-            joint = lookup(store, rel, ("ablation", name, f"{metric}_joint"), t_f=LONG_TERM_TF)
+            setting = expected(profile, k_e=LONG_TERM_KE, k_a=1)
+            ours = lookup(store, rel, ("ablation", name, metric), t_f=LONG_TERM_TF, expect=setting)
+            joint = lookup(store, rel, ("ablation", name, f"{metric}_joint"), t_f=LONG_TERM_TF,
+                           expect=setting)
             cells.append(compare(c[metric], ours, params, joint))
         rows.append(Row(metric.upper(), tuple(cells)))
     tick = {True: "\u2713", False: "\u2717"}
@@ -282,21 +301,24 @@ TABLE_BUILDERS = {"sdd_short": table_sdd_short, "eth_ucy": table_eth_ucy,
                   "sdd_long": table_sdd_long, "ttst": table_ttst}
 
 
-def build_tables(paper: Mapping, store: MetricsStore, params: ReportParams) -> list[Table]:
-    tables = [build(paper[key], store, params) for key, build in TABLE_BUILDERS.items()]
+def build_tables(paper: Mapping, store: MetricsStore, params: ReportParams,
+                 profile: str | None = None) -> list[Table]:
+    """The paper's four tables with ours beside them; `profile`: the one the stages ran under (a
+    file of another profile is shown as a mismatch, not compared)."""
+    tables = [build(paper[key], store, params, profile) for key, build in TABLE_BUILDERS.items()]
     return sorted(tables, key=lambda t: t.number)
 
 
 @dataclass(frozen=True)
 class TableSummary:
     table: Table
-    counts: Mapping[str, int]  # close, mid, far, absent, paper-only
+    counts: Mapping[str, int]  # close, mid, far, mismatch, absent, paper-only
     reasons: tuple[str, ...]  # distinct reasons of the absent cells
 
 
 def summarize(table: Table) -> TableSummary:
     """What a reviewer needs first: how many of the table's numbers we reproduce, and gaps."""
-    counts = {key: 0 for key in ("close", "mid", "far", "absent", "paper-only")}
+    counts = {key: 0 for key in ("close", "mid", "far", "mismatch", "absent", "paper-only")}
     reasons: list[str] = []
     for cell in table.cells():
         key = cell.band or cell.kind
@@ -327,13 +349,13 @@ def headline_metrics(tables: Iterable[Table], horizons: Iterable[Series]) -> dic
             for i, column in enumerate(table.columns):
                 for metric, row in metric_rows.items():
                     cell = row.cells[i]
-                    if isinstance(cell.ours, Measured):
+                    if cell.kind == "measured":
                         name = f"{folder}/{slug(column.group, column.label, column.sub)}.json"
                         files.setdefault(name, {})[metric] = cell.ours.mean
         else:  # rows per scene and AVG; columns model x metric
             average = next((row for row in table.rows if row.label == "AVG"), None)
             for column, cell in zip(table.columns, average.cells if average else ()):
-                if isinstance(cell.ours, Measured):
+                if cell.kind == "measured":
                     name = f"{folder}/{slug(column.group)}_avg.json"
                     files.setdefault(name, {})[column.label.lower()] = cell.ours.mean
     for series in horizons:
@@ -982,7 +1004,7 @@ def build_context(inputs: Inputs, params: Mapping[str, Any], report_params: Repo
     """
     paper = yaml.safe_load(inputs.paper.read_text())
     store = load_metrics(inputs.metrics, inputs.metrics.as_posix())
-    tables = build_tables(paper, store, report_params)
+    tables = build_tables(paper, store, report_params, params.get("profile"))
     horizons = (params.get("windows") or {}).get("horizons") or []
 
     def slot(name: str) -> FigureSlot:
