@@ -3,7 +3,10 @@
 A file is written to a temporary name beside its target (`.<name>.tmp<pid>`, same folder, so the
 rename cannot cross file systems) and renamed over the target only once it is complete; a folder is
 staged in a fresh temporary folder beside it and replaces it only when the block that fills it
-succeeds. A crash or a stop request therefore never leaves a torn output for DVC to cache.
+succeeds. A crash or a stop request therefore never leaves a torn output for DVC to cache. A
+process killed outright (SIGKILL: no `finally` runs) leaves its temporary file behind; the next
+write of the same target removes it (`remove_dead_writers`), so a resumed run's folders end as an
+uninterrupted run's.
 
 The formats are the ones the stages have always written, so outputs stay byte-identical: JSON with
 `indent` 2 (1 for the segmentation files) and a final newline, keys in insertion order unless
@@ -13,9 +16,11 @@ The formats are the ones the stages have always written, so outputs stay byte-id
 
 from __future__ import annotations
 
+import glob
 import io
 import json
 import os
+import re
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
@@ -27,6 +32,33 @@ import numpy as np
 import pandas as pd
 
 
+def pid_alive(pid: int) -> bool:
+    """Whether process `pid` exists (signal 0 checks without signalling)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def remove_dead_writers(path: Path) -> list[Path]:
+    """Remove the temporary files and staging folders of `path` (`.<name>.tmp<pid>...`) whose
+    writer no longer runs: what a killed process left. Returns what was removed."""
+    pattern = re.compile(rf"^\.{re.escape(path.name)}\.tmp(\d+)")
+    removed = []
+    for candidate in path.parent.glob(f".{glob.escape(path.name)}.tmp*"):
+        match = pattern.match(candidate.name)
+        if match and int(match[1]) != os.getpid() and not pid_alive(int(match[1])):
+            if candidate.is_dir() and not candidate.is_symlink():
+                shutil.rmtree(candidate)
+            else:
+                candidate.unlink(missing_ok=True)
+            removed.append(candidate)
+    return removed
+
+
 @contextmanager
 def atomic_path(path: Path, suffix: str = "", mode: int | None = None) -> Iterator[Path]:
     """A temporary path beside `path` (ending in `suffix`) to write to; renamed over `path` when the
@@ -34,6 +66,7 @@ def atomic_path(path: Path, suffix: str = "", mode: int | None = None) -> Iterat
     created."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_dead_writers(path)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}{suffix}")
     try:
         yield tmp
@@ -101,7 +134,8 @@ def atomic_dir(final: Path, mode: int | None = None) -> Iterator[Path]:
     a chmod to `mode`, if given: `mkdtemp` makes it 0700)."""
     final = Path(final)
     final.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
+    remove_dead_writers(final)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.tmp{os.getpid()}.", dir=final.parent))
     try:
         yield tmp
         if mode is not None:
