@@ -452,6 +452,7 @@ def test_audit_stage_fails_on_windows_no_known_cause_explains(mirror, monkeypatc
                                          r"the release:\n  gates_2 track 1 frames 100-1120\n  "
                                          r"gates_2 track 1 frames 1150-2170$"):
         audit_stage.main(["--sdd", "mirror/sdd", "--windows", str(windows), "--out", "out/audit.json"])
+    assert not (mirror / "out" / "audit.json").exists()
 
 
 # ---------------------------------------------------------------------------------------------

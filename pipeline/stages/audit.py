@@ -3,7 +3,7 @@
 For every video with raw annotations: windows ours / release / exact matches. Each mismatch is
 re-checked against windows cut with the other `compat.drop_first_row` setting (the authors'
 `read_csv(header=0)` quirk, the only known cause; `pipeline.data.audit`); an unexplained mismatch
-fails the stage. Params: `compat.drop_first_row`, `windows`, `split`.
+fails the stage, which then writes nothing. Params: `compat.drop_first_row`, `windows`, `split`.
 
     python -m pipeline.stages.audit --sdd data/raw/sdd --windows data/windows --out metrics/data_audit.json
 """
@@ -48,12 +48,12 @@ def main(argv: list[str] | None = None) -> None:
     totals.update(videos_with_raw=len(videos), videos_audited=len(per_video),
                   videos_with_windows=sum(v["ours"] + v["release"] > 0 for v in per_video.values()),
                   unexplained_mismatches=len(unexplained))
-    write_json({"t_f": t_f, "compat_drop_first_row": compat.drop_first_row,
-                "totals": totals, "videos": per_video}, args.out, sort_keys=True)
     print(f"audit: {totals}")
-    if unexplained:
+    if unexplained:  # before writing: a failed stage leaves no output behind
         sys.exit("audit: unexplained mismatches between our windows and the release:\n  "
                  + "\n  ".join(unexplained))
+    write_json({"t_f": t_f, "compat_drop_first_row": compat.drop_first_row,
+                "totals": totals, "videos": per_video}, args.out, sort_keys=True)
 
 
 if __name__ == "__main__":
