@@ -12,6 +12,7 @@ baselines' configs (`pipeline.harness.baselines`); `tests/test_params.py` checks
 from __future__ import annotations
 
 import dataclasses
+import types
 import typing
 import urllib.parse
 from dataclasses import dataclass, field
@@ -43,6 +44,27 @@ def read_params(path: Path | str = PARAMS_FILE) -> dict[str, Any]:
     return params
 
 
+SCALAR_TYPES = {bool: (bool,), int: (int,), float: (int, float), str: (str,)}
+
+
+def scalar_type_error(hint: Any, value: Any) -> str | None:
+    """Why `value` does not fit a plain scalar annotation (bool, int, float, str, or one of them
+    `| None`), or None; any other annotation is left to the dataclass's own checks. A bool is no
+    number here (YAML's `yes` for an epoch count is a typo, not 1)."""
+    options = (typing.get_args(hint) if typing.get_origin(hint) in (typing.Union, types.UnionType)
+               else (hint,))
+    kinds = [o for o in options if o is not type(None)]
+    if not kinds or any(o not in SCALAR_TYPES for o in kinds):
+        return None
+    if value is None and type(None) in options:
+        return None
+    for kind in kinds:
+        if isinstance(value, SCALAR_TYPES[kind]) and (kind is bool or not isinstance(value, bool)):
+            return None
+    wanted = " or ".join(k.__name__ for k in kinds) + (" or null" if type(None) in options else "")
+    return f"expected {wanted}, got {type(value).__name__} {value!r}"
+
+
 def from_dict(cls: type[T], values: Any, where: str) -> T:
     """Build dataclass `cls` from a mapping; nested dataclass fields recurse."""
     if not isinstance(values, dict):
@@ -57,6 +79,9 @@ def from_dict(cls: type[T], values: Any, where: str) -> T:
         hint = hints[name]
         if dataclasses.is_dataclass(hint):
             value = from_dict(hint, value, f"{where}.{name}")
+        wrong = scalar_type_error(hint, value)
+        if wrong:
+            raise ParamsError(f"{where}.{name}: {wrong}")
         kwargs[name] = value
     missing = [
         n for n, f in fields.items()
@@ -199,6 +224,10 @@ class WindowParams:
             raise ValueError("n_past must be at least 2 (a velocity needs two points)")
         if not self.horizons or min(self.horizons) < 1:
             raise ValueError("horizons must be a non-empty list of positive seconds")
+        if self.raw_fps < 1 or self.target_fps < 1:
+            raise ValueError(f"raw_fps and target_fps must be >= 1, got {self.raw_fps}, {self.target_fps}")
+        if self.release_horizon < 1:
+            raise ValueError(f"release_horizon must be >= 1 s, got {self.release_horizon}")
         if self.raw_fps % self.target_fps:
             raise ValueError(f"raw_fps {self.raw_fps} is not a multiple of target_fps {self.target_fps}")
 
@@ -215,10 +244,10 @@ class WindowParams:
 class IndParams:
     """Section `data.ind` of params.yaml: where the user's own copy of inD is."""
 
-    path: str = ""
+    path: str | None = ""
     """The inD release folder (holding data/XX_tracks.csv), absolute or relative to the repository
     root; empty: inD is not provided (the stages record why and the report says so)."""
-    labels: str = ""
+    labels: str | None = ""
     """Optional folder of hand-labelled masks XX_background_mask.png (values 1-5, the SDD classes of
     `ynet.segmentation.CLASS_NAMES`, the size of XX_background.png); they fine-tune the segmentation
     net. Empty: the SDD-trained net segments the backgrounds unchanged."""
@@ -228,7 +257,7 @@ class IndParams:
     def __post_init__(self) -> None:
         for name in ("path", "labels"):
             value = getattr(self, name)
-            if value is None:  # `path:` with nothing after it in YAML
+            if value is None:  # `path:` with nothing after it in YAML: empty, always a str after
                 object.__setattr__(self, name, "")
             elif not isinstance(value, str):
                 raise ValueError(f"{name} must be a folder path (a string), got {value!r}")
@@ -398,6 +427,12 @@ class TtstParams:
     rel_threshold: float = 0.002
     """Pixels below rel_threshold * max are never sampled."""
 
+    def __post_init__(self):
+        if not self.temperature > 0:
+            raise ValueError(f"temperature must be > 0, got {self.temperature}")
+        if not 0 <= self.rel_threshold < 1:
+            raise ValueError(f"rel_threshold must be in [0, 1), got {self.rel_threshold}")
+
 
 @dataclass
 class CwsParams:
@@ -407,6 +442,11 @@ class CwsParams:
     """Prior sigma across the direction of travel is divided by this."""
     rot: bool = True
     """Rotate the prior to the direction of travel."""
+
+    def __post_init__(self):
+        for name in ("sigma_factor", "ratio"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
 
 
 @dataclass

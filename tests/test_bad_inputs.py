@@ -20,9 +20,9 @@ import pandas as pd
 import pytest
 
 from pipeline.config import (
-    AugmentParams, EvalParams, EvaluateBaselineParams, FetchParams, HorizonParams,
+    AugmentParams, CompatParams, CwsParams, EvalParams, EvaluateBaselineParams, FetchParams, HorizonParams,
     IndBenchmarkParams, IndParams, LabelsParams, ParamsError, SegmentationParams, SemanticParams,
-    ShortTermModelsParams, ShortTermParams, TrainBaselineParams, WindowParams, YnetScale, from_dict,
+    ShortTermModelsParams, ShortTermParams, TrainBaselineParams, TtstParams, WindowParams, YnetScale, from_dict,
     load_profile, load_section, read_params,
 )
 from pipeline.data.checksums import ChecksumError, read_manifest
@@ -125,8 +125,19 @@ IND_BENCHMARK = {"ynet_resize": 0.33, "segmentation_downsample": 3, "freeze_enco
     (WindowParams, {}, {"n_past": 1}, r"n_past must be at least 2"),
     (WindowParams, {}, {"horizons": []}, r"horizons must be a non-empty list of positive seconds"),
     (WindowParams, {}, {"horizons": [0, 30]}, r"horizons must be a non-empty list of positive"),
-    (IndParams, {}, {"path": 3}, r"path must be a folder path \(a string\), got 3"),
-    (IndParams, {"path": "x"}, {"labels": ["a"]}, r"labels must be a folder path \(a string\)"),
+    (IndParams, {}, {"path": 3}, r"\.path: expected str or null, got int 3"),
+    (IndParams, {"path": "x"}, {"labels": ["a"]}, r"\.labels: expected str or null, got list \['a'\]"),
+    (TtstParams, {}, {"temperature": 0}, r"temperature must be > 0, got 0"),
+    (TtstParams, {}, {"rel_threshold": 1.0}, r"rel_threshold must be in \[0, 1\), got 1.0"),
+    (CwsParams, {}, {"sigma_factor": -6.0}, r"sigma_factor must be > 0, got -6.0"),
+    (CwsParams, {}, {"ratio": 0}, r"ratio must be > 0, got 0"),
+    (CwsParams, {}, {"rot": "yes"}, r"\.rot: expected bool, got str 'yes'"),
+    (CompatParams, {}, {"drop_first_row": 1}, r"\.drop_first_row: expected bool, got int 1"),
+    (WindowParams, {}, {"target_fps": 0}, r"raw_fps and target_fps must be >= 1, got 30, 0"),
+    (WindowParams, {}, {"release_horizon": 0}, r"release_horizon must be >= 1 s, got 0"),
+    (WindowParams, {}, {"n_past": True}, r"\.n_past: expected int, got bool True"),
+    (WindowParams, {}, {"n_past": 5.0}, r"\.n_past: expected int, got float 5.0"),
+    (WindowParams, {}, {"label": 3}, r"\.label: expected str, got int 3"),
     (LabelsParams, {}, {"overlay_alpha": 1.5}, r"overlay_alpha must be in \[0, 1\], got 1.5"),
     (AugmentParams, {}, {"rotate_deg": 200}, r"rotate_deg must be in \[0, 180\], got 200"),
     (AugmentParams, {}, {"scale_min": 2.0}, r"need 0 < scale_min <= scale_max, got 2.0, 1.33"),
