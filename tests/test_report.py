@@ -735,6 +735,9 @@ def test_provenance_counts_code_and_params_changes_never_outputs(tmp_path):
     assert report.porcelain_paths(["R  old.py -> new.py", " M a b.py", "?? data/"]) == [
         "new.py", "a b.py", "data/"]
     assert report.is_output("data/", ["data/tracks"]) and not report.is_output("database.py", ["data"])
+    assert report.is_output("reports/figures/.report.tmp2484.kn91exfz/", ["reports/figures/report"])
+    assert report.is_output("metrics/.ynet_eval.json.tmp77", ["metrics/ynet_eval.json"])
+    assert not report.is_output("pipeline/.page.py.tmp77", ["metrics/ynet_eval.json"])
 
 
 def test_metrics_of_another_profile_or_k_are_shown_but_not_compared(project):

@@ -751,8 +751,12 @@ def lock_outputs(lock_path: Path) -> list[str]:
 
 
 def is_output(path: str, outputs: Iterable[str]) -> bool:
-    """`path` (a file or, untracked, a folder ending in "/") is dvc.lock or lies in an output."""
+    """`path` (a file or, untracked, a folder ending in "/") is dvc.lock or lies in an output, or
+    is an output's temporary file or staging folder (`.<name>.tmp<pid>...`, `pipeline.io`)."""
     path = path.rstrip("/")
+    staged = re.match(r"^(.*/)?\.([^/]+?)\.tmp\d+[^/]*$", path)
+    if staged:
+        path = (staged[1] or "") + staged[2]
     return path == "dvc.lock" or any(path == out.rstrip("/") or path.startswith(out.rstrip("/") + "/")
                                      or out.startswith(path + "/") for out in outputs)
 
