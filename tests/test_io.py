@@ -20,7 +20,7 @@ def dead_pid() -> int:
 def test_a_failed_write_keeps_the_old_output_and_leaves_nothing(tmp_path):
     target = tmp_path / "m.json"
     write_json({"ade": 1.0}, target)
-    with pytest.raises(RuntimeError):
+    with pytest.raises(RuntimeError, match="stopped"):
         with atomic_dir(tmp_path / "folder"):
             raise RuntimeError("stopped")
 

@@ -714,7 +714,7 @@ def test_provenance_counts_code_and_params_changes_never_outputs(tmp_path):
         (tmp_path / rel).write_text(text)
     git("add", "-A")
     git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "c")
-    outputs = [*report.lock_outputs(tmp_path / "dvc.lock"), "reports/index.html"]
+    outputs = [*report.lock_outputs(report.read_lock(tmp_path / "dvc.lock")), "reports/index.html"]
     assert outputs == ["metrics/ynet_eval.json", "data/tracks", "reports/index.html"]
     assert report.git_state(tmp_path, outputs)["dirty"] is False
 

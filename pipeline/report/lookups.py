@@ -106,17 +106,22 @@ def settings_mismatch(found: Mapping[str, Any], expected: Mapping[str, Any]) -> 
             f"{', '.join(f'{k} = {expected[k]}' for k in differ)}")
 
 
+def horizon_checked(store: MetricsStore, rel: str, t_f: int | None) -> Any:
+    """The record of `rel`, or an `Absent` when there is none or it is for another horizon."""
+    record = store.record(rel)
+    if isinstance(record, Absent):
+        return record
+    return horizon_mismatch(store, rel, record, t_f) or record
+
+
 def lookup(store: MetricsStore, rel: str, path: tuple[str, ...], t_f: int | None = None,
            expect: Mapping[str, Any] | None = None) -> Measured | Absent:
     """The value at `path` in file `rel`, or why it is not there. `expect`: the settings the cell
     is for (e.g. profile, k, k_e); the file's own, read along the path (the innermost wins), must
     agree, or the value comes back marked with the `mismatch`."""
-    record = store.record(rel)
+    record = horizon_checked(store, rel, t_f)
     if isinstance(record, Absent):
         return record
-    mismatch = horizon_mismatch(store, rel, record, t_f)
-    if mismatch:
-        return mismatch
     node, rounds, found = record, None, {}
     for key in path:
         if isinstance(node, dict) and isinstance(node.get("not_run_reason"), str):
@@ -132,6 +137,7 @@ def lookup(store: MetricsStore, rel: str, path: tuple[str, ...], t_f: int | None
 
 def with_mismatch(value: Measured | Absent, found: Mapping[str, Any],
                   expect: Mapping[str, Any] | None) -> Measured | Absent:
+    """`value` marked with what of the settings `found` in its file differs from `expect`."""
     mismatch = settings_mismatch(found, expect or {})
     return replace(value, mismatch=mismatch) if mismatch and isinstance(value, Measured) else value
 
@@ -140,12 +146,9 @@ def lookup_grid(store: MetricsStore, rel: str, grid: str, match: Mapping[str, in
                 t_f: int | None = None, expect: Mapping[str, Any] | None = None) -> Measured | Absent:
     """`metric` of the entry of list `grid` in `rel` whose keys equal `match` (e.g. k_e, k_a);
     `expect` as in `lookup` (read from the file, then the entry)."""
-    record = store.record(rel)
+    record = horizon_checked(store, rel, t_f)
     if isinstance(record, Absent):
         return record
-    mismatch = horizon_mismatch(store, rel, record, t_f)
-    if mismatch:
-        return mismatch
     rows = record.get(grid) if isinstance(record, dict) else record
     wanted = ", ".join(f"{key} = {value}" for key, value in match.items())
     if not isinstance(rows, list):

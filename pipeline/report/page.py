@@ -277,12 +277,12 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams,
                profile: str | None = None) -> Table:
     """Table 4: Y-net with and without TTST and CWS, SDD and inD."""
     cols = spec["columns"]
+    setting = expected(profile, k_e=LONG_TERM_KE, k_a=1)  # the table's: main setting, K_a = 1
     rows = []
     for metric in METRICS:
         cells = []
         for c in cols:
             rel, name = long_term_file(c["dataset"]), c["ablation"]
-            setting = expected(profile, k_e=LONG_TERM_KE, k_a=1)
             ours = lookup(store, rel, ("ablation", name, metric), t_f=LONG_TERM_TF, expect=setting)
             joint = lookup(store, rel, ("ablation", name, f"{metric}_joint"), t_f=LONG_TERM_TF,
                            expect=setting)
@@ -740,14 +740,25 @@ def porcelain_paths(lines: Iterable[str]) -> list[str]:
     return [line[3:].split(" -> ")[-1].strip('"') for line in lines if len(line) > 3]
 
 
-def lock_outputs(lock_path: Path) -> list[str]:
-    """Every output path dvc.lock records (nothing if it is missing or unreadable)."""
+def read_lock(lock_path: Path) -> Mapping[str, Any] | Absent:
+    """dvc.lock parsed once (about a second of YAML at this size) for everything the page takes
+    from it, or why it cannot be."""
+    if not lock_path.exists():
+        return Absent(f"{lock_path.as_posix()} missing (no stage has run)")
     try:
-        lock = yaml.safe_load(lock_path.read_text()) or {}
-    except (OSError, yaml.YAMLError):
-        return []
-    return [str(out["path"]) for stage in (lock.get("stages") or {}).values()
-            for out in stage.get("outs") or [] if "path" in out]
+        return yaml.safe_load(lock_path.read_text()) or {}
+    except (OSError, yaml.YAMLError) as e:
+        return Absent(f"{lock_path.as_posix()} unreadable: {e}", "invalid")
+
+
+def lock_stages(lock: Mapping[str, Any] | Absent) -> Iterable[Mapping[str, Any]]:
+    return [] if isinstance(lock, Absent) else (lock.get("stages") or {}).values()
+
+
+def lock_outputs(lock: Mapping[str, Any] | Absent) -> list[str]:
+    """Every output path dvc.lock records (nothing if it is missing or unreadable)."""
+    return [str(out["path"]) for stage in lock_stages(lock) for out in stage.get("outs") or []
+            if "path" in out]
 
 
 def is_output(path: str, outputs: Iterable[str]) -> bool:
@@ -826,16 +837,12 @@ def manifest_checksums(folder: Path) -> list[dict[str, Any]]:
             for p in sorted(folder.glob("*.sha256"))]
 
 
-def raw_data_hashes(lock_path: Path) -> list[dict[str, Any]] | Absent:
+def raw_data_hashes(lock: Mapping[str, Any] | Absent) -> list[dict[str, Any]] | Absent:
     """The md5 DVC recorded for each data/raw/<source> output."""
-    if not lock_path.exists():
-        return Absent(f"{lock_path.as_posix()} missing (no stage has run)")
-    try:
-        lock = yaml.safe_load(lock_path.read_text()) or {}
-    except yaml.YAMLError as e:
-        return Absent(f"{lock_path.as_posix()} unreadable: {e}", "invalid")
+    if isinstance(lock, Absent):
+        return lock
     found = {}
-    for stage in (lock.get("stages") or {}).values():
+    for stage in lock_stages(lock):
         for out in stage.get("outs") or []:
             if str(out.get("path", "")).startswith("data/raw/"):
                 found[out["path"]] = {"path": out["path"], "md5": out.get("md5"),
@@ -855,15 +862,11 @@ def stage_timings(store: MetricsStore) -> dict[str, Any]:
     return {"keys": keys, "rows": rows}
 
 
-def lock_params(lock_path: Path) -> dict[str, Any]:
+def lock_params(lock: Mapping[str, Any] | Absent) -> dict[str, Any]:
     """The params.yaml values the stages ran with, as dvc.lock records them (each stage its keys),
     merged into one nested mapping: what the numbers on the page were computed with."""
-    try:
-        lock = yaml.safe_load(lock_path.read_text()) or {}
-    except (OSError, yaml.YAMLError):
-        return {}
     merged: dict[str, Any] = {}
-    for stage in (lock.get("stages") or {}).values():
+    for stage in lock_stages(lock):
         for key, value in ((stage.get("params") or {}).get("params.yaml") or {}).items():
             node = merged
             *parents, leaf = str(key).split(".")
@@ -935,7 +938,6 @@ class Inputs:
     segmentation_figures: Path
     qualitative: Path
     manifests: Path
-    dvc_lock: Path
     repo: Path = field(default_factory=Path.cwd)
     own_outputs: tuple[str, ...] = ()  # the report's outputs, relative to `repo`
 
@@ -987,26 +989,29 @@ def data_section(store: MetricsStore, scene_counts: Path) -> dict[str, Any]:
             "scene_absent": per_scene if isinstance(per_scene, Absent) else None}
 
 
-def provenance_section(inputs: Inputs, params: Mapping[str, Any], store: MetricsStore) -> dict[str, Any]:
+def provenance_section(inputs: Inputs, lock: Mapping[str, Any] | Absent, params: Mapping[str, Any],
+                       store: MetricsStore) -> dict[str, Any]:
     params_text = (yaml.safe_dump(params, sort_keys=True, default_flow_style=None, width=100)
                    if params else "(dvc.lock records no params yet)")
-    outputs = [*lock_outputs(inputs.dvc_lock), *inputs.own_outputs]
+    outputs = [*lock_outputs(lock), *inputs.own_outputs]
     return {"git": git_state(inputs.repo, outputs), "params_text": params_text,
             "profiles": profiles(params, store), "manifests": manifest_checksums(inputs.manifests),
-            "raw_hashes": raw_data_hashes(inputs.dvc_lock), "machine": machine(),
+            "raw_hashes": raw_data_hashes(lock), "machine": machine(),
             "timings": stage_timings(store),
             "metrics_files": sorted(store.where(rel) for rel in store.files)}
 
 
-def build_context(inputs: Inputs, params: Mapping[str, Any], report_params: ReportParams,
+def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_params: ReportParams,
                   figures_dir: Path, final_figures_dir: Path, html_dir: Path
                   ) -> tuple[dict, dict, dict]:
     """Everything the template shows, the dvc plots series and the headline metrics files; figures
-    drawn into `figures_dir`. `params`: the values the stages ran with (`lock_params`).
+    drawn into `figures_dir`. `lock`: dvc.lock as `read_lock` gives it (the params the stages ran
+    with, the outputs, the raw data's hashes).
 
     `final_figures_dir` is where those figures will be after the rename (for the <img> paths).
     """
     paper = yaml.safe_load(inputs.paper.read_text())
+    params = lock_params(lock)
     store = load_metrics(inputs.metrics, inputs.metrics.as_posix())
     tables = build_tables(paper, store, report_params, params.get("profile"))
     horizons = (params.get("windows") or {}).get("horizons") or []
@@ -1025,7 +1030,7 @@ def build_context(inputs: Inputs, params: Mapping[str, Any], report_params: Repo
         "n_test_videos": len(TEST_VIDEOS),
         "segmentation": {**segmentation_scores(store),
                          "gallery": segmentation_gallery(inputs.segmentation_figures, TEST_VIDEOS, slot)},
-        "provenance": provenance_section(inputs, params, store),
+        "provenance": provenance_section(inputs, lock, params, store),
     }
     return context, plots, headline_metrics(tables, figures["horizon"]["series"])
 
@@ -1046,7 +1051,7 @@ def read_text(path: Path) -> str:
         return f"(unreadable: {e})"
 
 
-def write_report(inputs: Inputs, params: Mapping[str, Any], report_params: ReportParams,
+def write_report(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_params: ReportParams,
                  out: Path, figures: Path, plots: Path, headline: Path,
                  template: Path = TEMPLATE) -> None:
     """Render everything into temporary places, then rename figures, plots, headline metrics and
@@ -1054,7 +1059,7 @@ def write_report(inputs: Inputs, params: Mapping[str, Any], report_params: Repor
     out.parent.mkdir(parents=True, exist_ok=True)
     with (atomic_dir(figures, mode=0o755) as staged_figures, atomic_dir(plots, mode=0o755) as staged_plots,
           atomic_dir(headline, mode=0o755) as staged_headline):
-        context, series, numbers = build_context(inputs, params, report_params, staged_figures, figures,
+        context, series, numbers = build_context(inputs, lock, report_params, staged_figures, figures,
                                                  out.parent)
         html = render_html(context, template)
         for name, rows in series.items():

@@ -26,7 +26,7 @@ from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import (SceneWindows, group_by_scene, model_input, padded_semantic,
                                     window_inputs)
 from pipeline.device import CPU, conv_layout, generator, module_device
-from pipeline.harness.metrics import seeded_rounds, summarize_rounds, window_errors
+from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, window_errors
 from pipeline.runners.ynet_training import YnetSettings
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
@@ -96,10 +96,12 @@ def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettin
     return paths, goals
 
 
-def rounds_result(per_round: list[dict[str, float]], options: SamplingOptions) -> dict:
-    """The metrics layout of one sampling setting: `rounds_record` with its K_e and K_a."""
-    return {**summarize_rounds(per_round), "k_e": options.K_e, "k_a": options.K_a,
-            "rounds": len(per_round), "per_round": per_round}
+def rounds_result(record: dict, options: SamplingOptions) -> dict:
+    """The metrics layout of one sampling setting: a `rounds_record` with its K_e and K_a after the
+    summary (where the metrics files have always had them)."""
+    summary = {key: record[key] for key in METRIC_KEYS}
+    return {**summary, "k_e": options.K_e, "k_a": options.K_a, "rounds": record["rounds"],
+            "per_round": record["per_round"]}
 
 
 def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> dict:
@@ -109,7 +111,7 @@ def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> d
                                       f"{desc} round {seed - params.seed + 1}/{rounds}")
         return window_errors(paths, truth, goals)
 
-    return rounds_result(seeded_rounds(score_round, rounds, params.seed)["per_round"], options)
+    return rounds_result(seeded_rounds(score_round, rounds, params.seed), options)
 
 
 @torch.inference_mode()
@@ -162,7 +164,7 @@ def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetS
     def grid_cell(k_e: int, k_a: int) -> dict:
         """One round; the main setting's cell is the main result's first round (same seed)."""
         if (k_e, k_a) == (params.k_e, params.k_a):
-            return rounds_result(result["main"]["per_round"][:1],
+            return rounds_result(rounds_record(result["main"]["per_round"][:1]),
                                  sampling_options(k_e, k_a, ttst, cws, True, True))
         return run(k_e, k_a, True, True, 1, f"K_e={k_e} K_a={k_a}")
 

@@ -21,7 +21,7 @@ import os
 from pathlib import Path
 
 from pipeline.config import ReportParams, load_section, read_params
-from pipeline.report.page import Inputs, lock_params, write_report
+from pipeline.report.page import Inputs, read_lock, write_report
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -45,8 +45,8 @@ def main(argv: list[str] | None = None) -> None:
     own_outputs = tuple(Path(os.path.relpath(path.resolve(), Path.cwd())).as_posix()
                         for path in (args.out, args.figures, args.plots, args.headline))
     inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.segmentation_figures,
-                    args.qualitative, args.manifests, args.dvc_lock, own_outputs=own_outputs)
-    write_report(inputs, lock_params(args.dvc_lock), report_params, args.out, args.figures,
+                    args.qualitative, args.manifests, own_outputs=own_outputs)
+    write_report(inputs, read_lock(args.dvc_lock), report_params, args.out, args.figures,
                  args.plots, args.headline)
 
 
