@@ -48,9 +48,7 @@ NONDETERMINISTIC_ON_CUDA = (
 def resolve_device(name: str) -> torch.device:
     """The torch.device a `runtime.device` name stands for on this machine."""
     kind, index = parse_device_name(name)
-    if kind == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    if kind == "cpu":
+    if kind == "cpu" or (kind == "auto" and not torch.cuda.is_available()):
         return CPU
     if not torch.cuda.is_available():
         raise RuntimeError(f"runtime.device is {name!r} but torch sees no CUDA device "

@@ -27,6 +27,17 @@ def test_auto_is_cuda_only_when_available_and_cpu_is_cpu():
     assert resolve_device("cpu") == torch.device("cpu")
 
 
+def test_auto_names_the_current_cuda_device_by_index(monkeypatch):
+    # `torch.cuda.set_device` rejects a CUDA device without an index, and `select_device` calls
+    # it: an index-less "auto" crashed every stage on the first real GPU.
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    monkeypatch.setattr(torch.cuda, "device_count", lambda: 2)
+    monkeypatch.setattr(torch.cuda, "current_device", lambda: 1)
+    assert resolve_device("auto") == torch.device("cuda", 1)
+    assert resolve_device("cuda") == torch.device("cuda", 1)
+    assert resolve_device("cuda:0") == torch.device("cuda", 0)
+
+
 @pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")
 def test_asking_for_cuda_without_one_says_so():
     with pytest.raises(RuntimeError, match="no CUDA device"):

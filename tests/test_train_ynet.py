@@ -3,6 +3,7 @@
 import dataclasses
 import os
 import signal
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -94,6 +95,30 @@ def test_stopped_mid_epoch_then_resumed_gives_the_same_weights(tmp_path, monkeyp
         torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)
     assert ((tmp_path / "a" / "history.csv").read_text().splitlines()[1].split(",")[:2]
             == (folder / "history.csv").read_text().splitlines()[1].split(",")[:2])
+
+
+def test_time_before_a_mid_epoch_stop_counts_in_train_seconds(tmp_path, monkeypatch):
+    """A mid-epoch checkpoint keeps the time the epoch took so far (it used to keep only the
+    finished epochs', so a paper run advanced in 10-minute pieces reported a few seconds)."""
+    readings = iter(range(0, 10_000, 10))  # a clock that moves 10 s per reading
+    monkeypatch.setattr(train_ynet, "time", SimpleNamespace(perf_counter=lambda: next(readings)))
+    steps = []
+    real_loss = train_ynet.ynet_loss
+
+    def loss_then_stop(*args, **kwargs):
+        steps.append(1)
+        if len(steps) == 6 + 2:  # epoch 2's second step (6 steps per epoch)
+            os.kill(os.getpid(), signal.SIGTERM)
+        return real_loss(*args, **kwargs)
+
+    monkeypatch.setattr(train_ynet, "ynet_loss", loss_then_stop)
+    folder = tmp_path / "b"
+    with Preemption() as preemption, pytest.raises(StopRequested):
+        train(arrays(6, "train", 0), arrays(2, "val", 1), MAPS, SIZES, YnetSettings(**SETTINGS),
+              N_PAST, folder / "last.pt", folder / "best.pt", folder / "history.csv",
+              preemption=preemption)
+    progress = torch.load(folder / "last.pt", weights_only=True)["state"]["progress"]
+    assert progress["seconds"] > progress["history"][-1]["seconds"] > 0
 
 
 def test_a_finished_run_rerun_restores_deleted_outputs(tmp_path):

@@ -305,6 +305,8 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     def save_checkpoint(plan_state: dict, losses: list[float] | None) -> None:
         """`losses`: the steps taken in the epoch under way (None at the end of an epoch)."""
         progress = {key: state[key] for key in ("history", "best", "seconds")}
+        if losses is not None:  # mid-epoch: keep the epoch's time so far, or a resumed run loses it
+            progress["seconds"] += time.perf_counter() - start
         checkpoints.save(checkpoint, identity, state["epoch"],
                          {"model": model.state_dict(), "optimizer": optimizer.state_dict(),
                           "rng": {"numpy_plan": plan_state, **rng_states(device)},
