@@ -12,6 +12,12 @@ The formats are the ones the stages have always written, so outputs stay byte-id
 `indent` 2 (1 for the segmentation files) and a final newline, keys in insertion order unless
 `sort_keys`; parquet without the index; `torch.save` archives named after the target file (or
 `archive` when serialised in memory first, as the segmentation stage's files are).
+
+What one stage writes for a later one to read (an `index.json`, an `.npz` of arrays) is read back
+through here too, checked (`read_json_index`, `index_value`, `same_names`, `read_npz`,
+`check_array`): a file edited by hand, torn, or left by an older version of the code stops the
+reading stage with an `IntermediateError` naming the file and the key, instead of a KeyError deep
+inside training.
 """
 
 from __future__ import annotations
@@ -23,13 +29,16 @@ import os
 import re
 import shutil
 import tempfile
-from collections.abc import Callable, Iterator
+import zipfile
+from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
+
+from pipeline.config import scalar_type_error
 
 
 def pid_alive(pid: int) -> bool:
@@ -146,3 +155,88 @@ def atomic_dir(final: Path, mode: int | None = None) -> Iterator[Path]:
     finally:
         if tmp.exists():
             shutil.rmtree(tmp)
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading back what a stage wrote
+
+
+class IntermediateError(ValueError):
+    """A file one stage wrote for a later one is not what the writer writes."""
+
+
+def read_json_index(path: Path) -> dict:
+    """The JSON object at `path`, or an IntermediateError naming the file."""
+    try:
+        value = json.loads(Path(path).read_text())
+    except FileNotFoundError as e:
+        raise IntermediateError(f"{path}: missing (re-run the stage that writes it)") from e
+    except (OSError, ValueError) as e:  # unreadable, not UTF-8, not JSON
+        raise IntermediateError(f"{path}: not readable as JSON ({e})") from e
+    if not isinstance(value, dict):
+        raise IntermediateError(f"{path}: expected a JSON object, got {type(value).__name__}")
+    return value
+
+
+def index_value(mapping: dict, key: str, kind: Any, path: Path, where: str = "") -> Any:
+    """`mapping[key]`, checked to be of `kind`: dict, list, or a scalar annotation as params take
+    (bool, int, float, str, `X | None`; a bool is no number). The error names the file and the key
+    path (`where` is the path of `mapping`, e.g. 'videos.gates_2.')."""
+    if key not in mapping:
+        raise IntermediateError(f"{path}: {where}{key}: missing")
+    value = mapping[key]
+    if kind in (dict, list):
+        wrong = (None if isinstance(value, kind)
+                 else f"expected {kind.__name__}, got {type(value).__name__}")
+    else:
+        wrong = scalar_type_error(kind, value)
+    if wrong:
+        raise IntermediateError(f"{path}: {where}{key}: {wrong}")
+    return value
+
+
+def positive_ints(values: list, n: int) -> bool:
+    """Whether `values` are `n` positive integers (a size, a shape; a bool is no number)."""
+    return len(values) == n and all(isinstance(v, int) and not isinstance(v, bool) and v > 0
+                                    for v in values)
+
+
+def same_names(listed: Collection[str], found: Collection[str], path: Path, index: Path) -> None:
+    """What `index` lists is exactly what `path` holds (arrays of an archive, files of a folder):
+    a name on one side only means the two were not written together."""
+    absent = sorted(set(listed) - set(found))
+    if absent:
+        raise IntermediateError(f"{path}: no entry for {absent[:5]}, listed in {index}")
+    unlisted = sorted(set(found) - set(listed))
+    if unlisted:
+        raise IntermediateError(f"{path}: {unlisted[:5]} not listed in {index}")
+
+
+def read_npz(path: Path, listed: Collection[str], index: Path) -> dict[str, np.ndarray]:
+    """Every array of the `.npz` a stage wrote at `path` (no pickles); its names must be those
+    `index` lists."""
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            same_names(listed, stored.files, path, index)
+            return {name: stored[name] for name in stored.files}
+    except IntermediateError:
+        raise
+    except FileNotFoundError as e:
+        raise IntermediateError(f"{path}: missing (re-run the stage that writes it)") from e
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:  # torn, pickled, not an npz
+        raise IntermediateError(f"{path}: not a readable npz archive ({e})") from e
+
+
+def check_array(array: np.ndarray, dtype: Any, shape: tuple[int | None, ...], path: Path,
+                name: str) -> np.ndarray:
+    """`array` (`name` in `path`) if it has `dtype`, `shape` (None: any size on that axis) and,
+    for floats, only finite values: a NaN in a map would turn every later loss into NaN."""
+    if array.dtype != np.dtype(dtype):
+        raise IntermediateError(f"{path}: {name}: dtype {array.dtype}, expected {np.dtype(dtype)}")
+    if array.ndim != len(shape) or any(s is not None and a != s for a, s in zip(array.shape, shape)):
+        expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
+        raise IntermediateError(f"{path}: {name}: shape {array.shape}, expected {expected}")
+    if array.dtype.kind == "f" and not np.isfinite(array).all():
+        bad = int(array.size - np.isfinite(array).sum())
+        raise IntermediateError(f"{path}: {name}: {bad} non-finite value(s)")
+    return array

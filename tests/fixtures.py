@@ -1,12 +1,14 @@
 """Small data sets in the official file formats, written by the tests themselves.
 
 `write_mirror` lays out a mini mirror like `../shared/data` (SDD annotations, a release archive
-with pandas pickles) whose windows are known by construction, plus its manifests.
+with pandas pickles) whose windows are known by construction, plus its manifests. `write_maps_folder`
+writes a scene-map folder (`maps.npz` + `index.json`) as the semantic-map stages do.
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 from pathlib import Path
 
 import numpy as np
@@ -48,6 +50,20 @@ def release_rows(scene_id: str, track: int, first_frame: int, track_start: int, 
     xmin, ymin = centre(x0, y0, vx, vy, track_start, frames)
     return pd.DataFrame({"trackId": track, "frame": frames, "x": xmin + 5.0, "y": ymin + 10.0,
                          "sceneId": scene_id, "metaId": meta_id})
+
+
+def write_maps_folder(folder: Path, maps: dict[str, np.ndarray], classes: list[str],
+                      key: str = "videos", entries: dict[str, dict] | None = None) -> Path:
+    """`maps.npz` (uint8 maps) and its `index.json`, as `pipeline.data.semantic_maps` (key
+    "videos") and `pipeline.data.short_term` (key "scenes", `entries` adding e.g. homographies)
+    write them."""
+    folder.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(folder / "maps.npz", **maps)
+    listed = {name: {"shape": list(m.shape), **(entries or {}).get(name, {})} for name, m in maps.items()}
+    (folder / "index.json").write_text(json.dumps({
+        "classes": list(classes), "resize": 0.25, "encoding": "uint8, probability = value / 255",
+        key: listed}))
+    return folder
 
 
 def write_manifest(source_root: Path, manifest: Path) -> None:

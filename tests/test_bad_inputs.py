@@ -5,19 +5,22 @@ These are the checks that no other test asserted the message of (the catalogue o
 where each is tested was written alongside). Bad inputs are built in `tmp_path`, with the fixture
 writers of `tests/fixtures.py`, `tests/test_labels.py` and `tests/test_ind.py`; where the check runs
 inside a stage's `main(argv)` the stage is run in `tmp_path` with a minimal params.yaml, and no
-output may be left behind.
+output may be left behind. The files one stage writes for another (`index.json`, `maps.npz`) are
+checked on reading too: their section ends with every stage that reads one, given a bad one.
 """
 
 from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 from pipeline.config import (
     AugmentParams, CompatParams, CwsParams, EvalParams, EvaluateBaselineParams, FetchParams, HorizonParams,
@@ -29,14 +32,21 @@ from pipeline.data.checksums import ChecksumError, read_manifest
 from pipeline.data.homography import HomographyError, read_homography
 from pipeline.data import ind
 from pipeline.data.ind import IndError
-from pipeline.data.labels import MaskError, find_masks, read_label_map
+from pipeline.data.labels import MaskError, find_masks, read_index, read_label_map
 from pipeline.data.short_term import (
-    SCENES, ShortTermInputError, ethucy_fold_windows, fixed_windows, read_oracle, read_rows,
-    read_sdd_ratios, sdd_trajnet_windows, sgan_file_scene, sgan_window_rows, write_ethucy_maps,
+    MAP_CLASSES, SCENES, ShortTermInputError, ethucy_fold_windows, fixed_windows, load_ethucy_scenes,
+    read_oracle, read_rows, read_sdd_ratios, sdd_trajnet_windows, sgan_file_scene, sgan_window_rows,
+    write_ethucy_maps,
 )
 from pipeline.data.tracks import AnnotationError, build_tracks, parse_annotations
 from pipeline.data.window_table import conform, to_arrays
+from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.windows import ReleaseError, raw_windows, validate_release
+from pipeline.io import IntermediateError
+from pipeline.runners import ind as ind_benchmark
+from pipeline.stages import (evaluate_ind, evaluate_short_term_baseline, evaluate_short_term_ynet,
+                             evaluate_ynet, evaluate_ynet_horizon, train_ind, train_short_term_baseline,
+                             train_short_term_ynet, train_ynet, train_ynet_horizon)
 from pipeline.stages import audit as audit_stage
 from pipeline.stages import fetch as fetch_stage
 from pipeline.stages import horizon_windows as horizon_windows_stage
@@ -47,9 +57,13 @@ from pipeline.stages import semantic_maps as semantic_maps_stage
 from pipeline.stages import short_term_windows as short_term_stage
 from pipeline.stages import tracks as tracks_stage
 from pipeline.stages import windows as windows_stage
-from tests.fixtures import STRIDE, annotation_lines, release_rows, write_annotations, write_manifest, write_mirror
+from tests.fixtures import (STRIDE, annotation_lines, release_rows, write_annotations, write_manifest,
+                            write_maps_folder, write_mirror)
 from tests.test_ind import VAL, write_ind_copy
 from tests.test_labels import good_mask, make_fixture, write_png
+from ynet.segmentation import CLASS_NAMES
+
+REPO = Path(__file__).resolve().parents[1]
 
 WINDOWS_YAML = ("windows: {n_past: 5, horizons: [5, 30], raw_fps: 30, target_fps: 1, "
                 "label: Pedestrian, release_horizon: 30}\nsplit: {val_videos: []}\n")
@@ -328,10 +342,19 @@ def test_missing_label_map_is_named(tmp_path):
         read_label_map(tmp_path, "gates_1")
 
 
+def write_labels_folder(labels: Path, splits: dict[str, str]) -> Path:
+    """The labels stage's output: `index.json` and one label map per video (`maps/<video>.png`)."""
+    videos = {}
+    for name, split in splits.items():
+        write_png(labels / "maps" / f"{name}.png", np.ones((4, 6), np.uint8))
+        videos[name] = {"split": split, "height": 4, "width": 6, "pixels": {}}
+    (labels / "index.json").write_text(json.dumps({"classes": list(CLASS_NAMES), "pad_class": 0,
+                                                   "videos": videos}))
+    return labels
+
+
 def test_semantic_maps_stage_stops_on_a_missing_reference_image_and_writes_nothing(tmp_path, monkeypatch):
-    labels = tmp_path / "labels"
-    labels.mkdir()
-    (labels / "index.json").write_text(json.dumps({"videos": {"gates_1": {"split": "train"}}}))
+    labels = write_labels_folder(tmp_path / "labels", {"gates_1": "train"})
     monkeypatch.chdir(tmp_path)
     (tmp_path / "params.yaml").write_text("semantic: {source: labels, resize: 0.25}\n"
                                           "runtime: {device: cpu, max_minutes: 0}\n")
@@ -344,9 +367,7 @@ def test_semantic_maps_stage_stops_on_a_missing_reference_image_and_writes_nothi
 
 
 def test_segmentation_stage_without_train_videos_stops_before_writing(tmp_path, monkeypatch):
-    labels = tmp_path / "labels"
-    labels.mkdir()
-    (labels / "index.json").write_text(json.dumps({"videos": {"gates_2": {"split": "test"}}}))
+    labels = write_labels_folder(tmp_path / "labels", {"gates_2": "test"})
     monkeypatch.chdir(tmp_path)
     (tmp_path / "params.yaml").write_text(
         "profile: cpu\nruntime: {device: cpu, max_minutes: 0}\n"
@@ -392,6 +413,23 @@ def test_release_window_spanning_two_tracks_is_named():
         validate_release(two_scenes, "test_longterm.pkl", 35, STRIDE)
 
 
+@pytest.mark.parametrize("change, message", [
+    (lambda t: t.assign(x=t["x"].where(t.index != 5)), r"1 row\(s\) with a non-finite x or y, in "
+                                                       r"metaId\(s\) \[0\], e.g. row 5$"),
+    (lambda t: t.assign(y=t["y"].where(t.index < 30, np.inf)), r"5 row\(s\) with a non-finite x or "
+                                                               r"y, in metaId\(s\) \[0\], e.g. row 30$"),
+    (lambda t: t.assign(frame=t["frame"] - STRIDE), r"1 row\(s\) with a negative \(or missing\) "
+                                                    r"frame, in metaId\(s\) \[0\], e.g. row 0$"),
+    (lambda t: t.assign(x=t["x"].astype(str)), r"column\(s\) \['x'\] not numeric$"),
+])
+def test_release_values_are_checked(change, message):
+    """Frames still step by the stride, windows stay whole: only the value check can catch these."""
+    good = release_rows("gates_2", 1, 0, 0, 0.0, 0.0, 1.0, 0.0, meta_id=0)
+    validate_release(good, "test_longterm.pkl", 35, STRIDE)
+    with pytest.raises(ReleaseError, match=rf"^test_longterm.pkl: {message}"):
+        validate_release(change(good), "test_longterm.pkl", 35, STRIDE)
+
+
 @pytest.fixture
 def mirror(tmp_path):
     """The fixture mirror, its tracks parquet and a params.yaml; cwd is tmp_path."""
@@ -414,6 +452,19 @@ def test_windows_stage_stops_on_release_scenes_outside_their_split(mirror, monke
     monkeypatch.chdir(mirror)
     with pytest.raises(SystemExit, match=rf"^windows: {esc(pickle)}: scenes outside its split: "
                                          r"\['gates_2'\]$"):
+        run_windows_stage(mirror)
+    assert nothing_written(mirror, "out")
+
+
+def test_windows_stage_stops_on_a_non_finite_release_position(mirror, monkeypatch):
+    pickle = mirror / "mirror/ynet-release/data/SDD/train_longterm.pkl"
+    table = pd.read_pickle(pickle)
+    table.assign(y=table["y"].where(table.index != 3)).to_pickle(pickle)
+    write_manifest(mirror / "mirror/ynet-release", mirror / "manifests/ynet-release.sha256")
+    monkeypatch.chdir(mirror)
+    with pytest.raises(SystemExit, match=rf"^windows: {esc(pickle)}: 1 row\(s\) with a non-finite x "
+                                         rf"or y, in metaId\(s\) \[{table.loc[3, 'metaId']}\], e.g. "
+                                         r"row 3$"):
         run_windows_stage(mirror)
     assert nothing_written(mirror, "out")
 
@@ -630,6 +681,13 @@ def break_csv(path: Path, change) -> None:
      r"08_tracksMeta\.csv: trackId\(s\) listed twice, e.g. 0$"),
     (lambda d: break_csv(d / "08_tracks.csv", lambda t: t.assign(recordingId=9)),
      r"08_tracks\.csv: rows of another recording than 08$"),
+    (lambda d: break_csv(d / "08_tracks.csv", lambda t: t.assign(xCenter=t["xCenter"].where(t.index != 3))),
+     r"08_tracks\.csv: 1 row\(s\) with a non-finite xCenter or yCenter, on line\(s\) \[5\]$"),
+    (lambda d: break_csv(d / "07_tracks.csv", lambda t: t.assign(yCenter=t["yCenter"].where(t.index > 1, np.inf))),
+     r"07_tracks\.csv: 2 row\(s\) with a non-finite xCenter or yCenter, on line\(s\) \[2, 3\]$"),
+    (lambda d: break_csv(d / "08_tracks.csv", lambda t: pd.concat([t, t.iloc[[4]]])),
+     r"08_tracks\.csv: 2 row\(s\) repeat a \(trackId, frame\), e.g. trackId 0 frame 54 on lines "
+     r"\[6, 1002\]$"),
 ])
 def test_bad_ind_file_is_named(tmp_path, how, message):
     root = write_ind_copy(tmp_path / "copy")
@@ -668,3 +726,234 @@ def test_ind_windows_stage_stops_on_a_bad_recording_and_writes_nothing(tmp_path,
                                          r"the file name$"):
         ind_windows_stage.main(["--out", "out/ind", "--metrics", "out/ind.json"])
     assert nothing_written(tmp_path, "out")
+
+
+# ---------------------------------------------------------------------------------------------
+# Files one stage writes for another: scene maps (`index.json` + `maps.npz`), the ETH/UCY scene
+# index, the labels index, the inD index and the inD maps kept for scoring
+
+
+def sdd_maps(folder: Path) -> Path:
+    """A scene-map folder as stage semantic_maps writes it: gates_1 and gates_2, (6, 8, 10) each."""
+    maps = {name: np.full((len(CLASS_NAMES), 8, 10), 42, np.uint8) for name in ("gates_1", "gates_2")}
+    return write_maps_folder(folder, maps, CLASS_NAMES)
+
+
+def edit_json(path: Path, change) -> None:
+    value = json.loads(path.read_text())
+    change(value)
+    path.write_text(json.dumps(value))
+
+
+def rewrite_npz(path: Path, **arrays) -> None:
+    with np.load(path) as stored:
+        kept = {name: stored[name] for name in stored.files}
+    np.savez_compressed(path, **{**kept, **arrays})
+
+
+@pytest.mark.parametrize("how, message", [
+    (lambda f: (f / "index.json").unlink(), r"{f}/index.json: missing \(re-run the stage that writes it\)$"),
+    (lambda f: (f / "index.json").write_text("{"), r"{f}/index.json: not readable as JSON \("),
+    (lambda f: (f / "index.json").write_text("[]"), r"{f}/index.json: expected a JSON object, got list$"),
+    (lambda f: edit_json(f / "index.json", lambda i: i.pop("classes")), r"{f}/index.json: classes: missing$"),
+    (lambda f: edit_json(f / "index.json", lambda i: i.update(classes=[])),
+     r"{f}/index.json: classes: expected a non-empty list of names, got \[\]$"),
+    (lambda f: edit_json(f / "index.json", lambda i: i.update(resize="0.25")),
+     r"{f}/index.json: resize: expected float, got str '0.25'$"),
+    (lambda f: edit_json(f / "index.json", lambda i: i["videos"].update(gates_1="x")),
+     r"{f}/index.json: videos.gates_1: expected dict, got str$"),
+    (lambda f: edit_json(f / "index.json", lambda i: i["videos"]["gates_1"].update(shape=[6, 8])),
+     r"{f}/index.json: videos.gates_1.shape: expected \[C, H, W\] of positive integers with C = 6 "
+     r"classes, got \[6, 8\]$"),
+    (lambda f: np.savez_compressed(f / "maps.npz", gates_1=np.zeros((6, 8, 10), np.uint8)),
+     r"{f}/maps.npz: no entry for \['gates_2'\], listed in {f}/index.json$"),
+    (lambda f: edit_json(f / "index.json", lambda i: i["videos"].pop("gates_2")),
+     r"{f}/maps.npz: \['gates_2'\] not listed in {f}/index.json$"),
+    (lambda f: rewrite_npz(f / "maps.npz", gates_1=np.zeros((6, 8, 10), np.float32)),
+     r"{f}/maps.npz: gates_1: dtype float32, expected uint8$"),
+    (lambda f: edit_json(f / "index.json", lambda i: i["videos"]["gates_2"].update(shape=[6, 9, 10])),
+     r"{f}/maps.npz: gates_2: shape \(6, 8, 10\), expected \(6, 9, 10\)$"),
+    (lambda f: (f / "maps.npz").write_bytes(b"not a zip archive"), r"{f}/maps.npz: not a readable npz archive \("),
+])
+def test_bad_scene_maps_are_named(tmp_path, how, message):
+    folder = sdd_maps(tmp_path / "semantic_maps")
+    assert set(load_semantic_maps(folder)) == {"gates_1", "gates_2"}
+    how(folder)
+    with pytest.raises(IntermediateError, match="^" + message.format(f=esc(folder))):
+        load_semantic_maps(folder)
+
+
+def ethucy_scenes(folder: Path) -> Path:
+    """The ETH/UCY scene folder stage short_term_windows writes, for scene eth."""
+    maps = {"eth": np.zeros((len(MAP_CLASSES), 8, 10), np.uint8)}
+    entry = {"image_hw": [480, 640], "homography": np.eye(3).tolist(), "swap": True}
+    return write_maps_folder(folder, maps, MAP_CLASSES, "scenes", {"eth": entry})
+
+
+def nan_homography(index: dict) -> None:
+    index["scenes"]["eth"]["homography"][1][1] = float("nan")  # json writes it as NaN
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda i: i.pop("scenes"), r"scenes: missing$"),
+    (lambda i: i["scenes"]["eth"].update(image_hw=[480]),
+     r"scenes.eth.image_hw: expected \[height, width\] of positive integers, got \[480\]$"),
+    (nan_homography, r"scenes.eth.homography: expected a 3 x 3 matrix of finite numbers, got "
+                     r"\[\[1.0, 0.0, 0.0\], \[0.0, nan, 0.0\]"),
+    (lambda i: i["scenes"]["eth"].update(homography=[[1, 0, 0], [0, 1, 0]]),
+     r"scenes.eth.homography: expected a 3 x 3 matrix of finite numbers, got \[\[1, 0, 0\], \[0, 1, 0\]\]$"),
+    (lambda i: i["scenes"]["eth"].update(swap="yes"), r"scenes.eth.swap: expected bool, got str 'yes'$"),
+])
+def test_bad_ethucy_scene_index_is_named(tmp_path, change, message):
+    folder = ethucy_scenes(tmp_path / "ethucy_semantic")
+    assert load_ethucy_scenes(folder)["eth"].swap is True
+    edit_json(folder / "index.json", change)
+    with pytest.raises(IntermediateError, match=rf"^{esc(folder / 'index.json')}: {message}"):
+        load_ethucy_scenes(folder)
+
+
+@pytest.mark.parametrize("how, message", [
+    (lambda l: edit_json(l / "index.json", lambda i: i.update(pad_class="0")),
+     r"{l}/index.json: pad_class: expected int, got str '0'$"),
+    (lambda l: edit_json(l / "index.json", lambda i: i["videos"]["gates_1"].update(split="dev")),
+     r"{l}/index.json: videos.gates_1.split: expected one of \['train', 'test', 'none'\], got 'dev'$"),
+    (lambda l: edit_json(l / "index.json", lambda i: i["videos"]["gates_2"].update(height=0)),
+     r"{l}/index.json: videos.gates_2.height: expected a positive size, got 0$"),
+    (lambda l: (l / "maps" / "gates_1.png").unlink(), r"{l}/maps: no entry for \['gates_1'\], listed in {l}/index.json$"),
+    (lambda l: write_png(l / "maps" / "gates_9.png", np.ones((4, 6), np.uint8)),
+     r"{l}/maps: \['gates_9'\] not listed in {l}/index.json$"),
+])
+def test_bad_labels_index_is_named(tmp_path, how, message):
+    labels = write_labels_folder(tmp_path / "labels", {"gates_1": "train", "gates_2": "test"})
+    assert set(read_index(labels)["videos"]) == {"gates_1", "gates_2"}
+    how(labels)
+    with pytest.raises(IntermediateError, match="^" + message.format(l=esc(labels))):
+        read_index(labels)
+
+
+@pytest.fixture(scope="module")
+def ind_out(tmp_path_factory) -> Path:
+    """The output of stage ind_windows on the inD fixture (provided, with labels)."""
+    tmp = tmp_path_factory.mktemp("ind_out")
+    root = write_ind_copy(tmp / "copy", labels=tmp / "masks")
+    params = IndParams(path=str(root), labels=str(tmp / "masks"), val_recordings=VAL)
+    ind.write(ind.build(params, WindowParams()), tmp / "ind", tmp / "ind.json")
+    return tmp / "ind"
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda i: i.update(provided="yes"), r"provided: expected bool, got str 'yes'$"),
+    (lambda i: i.update(n_past=5.0), r"n_past: expected int, got float 5.0$"),
+    (lambda i: i["tables"].update({"30": "tf31.parquet"}), r"tables.30: 'tf31.parquet' not a file in {d}$"),
+    (lambda i: i["scenes"]["ind_loc1_rec07"].update(split="dev"),
+     r"scenes.ind_loc1_rec07.split: expected one of \['train', 'val', 'test'\], got 'dev'$"),
+    (lambda i: i["scenes"]["ind_loc1_rec07"].pop("location"), r"scenes.ind_loc1_rec07.location: missing$"),
+    (lambda i: i["scenes"]["ind_loc1_rec08"].update(width=0),
+     r"scenes.ind_loc1_rec08.height, width: expected positive sizes, got 300, 0$"),
+    (lambda i: i["scenes"]["ind_loc4_rec00"].update(labels="labels/absent.png"),
+     r"scenes.ind_loc4_rec00.labels: labels/absent.png not in {d}$"),
+])
+def test_bad_ind_index_is_named(ind_out, tmp_path, change, message):
+    shutil.copytree(ind_out, tmp_path / "ind")
+    folder = tmp_path / "ind"
+    assert ind_benchmark.read_index(folder)["provided"] is True
+    edit_json(folder / "index.json", change)
+    with pytest.raises(IntermediateError, match=rf"^{esc(folder / 'index.json')}: "
+                                                + message.format(d=esc(folder))):
+        ind_benchmark.read_index(folder)
+
+
+@pytest.mark.parametrize("arrays, message", [
+    ({"ind_loc1_rec07": np.zeros((6, 4, 5), np.float32)},
+     r"no entry for \['ind_loc1_rec08'\], listed in {d}/index.json$"),
+    ({**{s: np.zeros((6, 4, 5), np.float32) for s in ("ind_loc1_rec07", "ind_loc1_rec08")},
+      "ind_loc4_rec00": np.full((6, 4, 5), np.nan, np.float32)}, r"ind_loc4_rec00: 120 non-finite value\(s\)$"),
+    ({s: np.zeros((3, 4, 5), np.float32) for s in ("ind_loc4_rec00", "ind_loc1_rec07", "ind_loc1_rec08")},
+     r"ind_loc4_rec00: shape \(3, 4, 5\), expected \(6, any, any\)$"),
+])
+def test_bad_ind_maps_are_named(ind_out, tmp_path, arrays, message):
+    index = ind_benchmark.read_index(ind_out)
+    path = tmp_path / ind_benchmark.MAPS
+    path.parent.mkdir(parents=True)
+    good = {name: np.full((6, 4, 5), 1 / 6, np.float32) for name in index["scenes"]}
+    np.savez_compressed(path, **good)
+    assert set(ind_benchmark.read_maps(tmp_path, index, ind_out)) == set(good)
+    np.savez_compressed(path, **({"ind_loc4_rec00": good["ind_loc4_rec00"]} | arrays))
+    with pytest.raises(IntermediateError, match=rf"^{esc(path)}: " + message.format(d=esc(ind_out))):
+        ind_benchmark.read_maps(tmp_path, index, ind_out)
+
+
+def window_rows(steps: int) -> pd.DataFrame:
+    """One window of `steps` steps per split (train, val, test) on gates_1."""
+    return conform(pd.DataFrame([
+        {"window_id": w, "scene_id": "gates_1", "track_id": w, "step": k, "frame": 30 * k,
+         "x": float(k), "y": 1.0, "split": split, "t_f": steps - 5, "source": "release"}
+        for w, split in enumerate(("train", "val", "test")) for k in range(steps)]))
+
+
+@pytest.fixture
+def bad_intermediates(tmp_path, monkeypatch):
+    """In tmp_path (the cwd): the real params.yaml on the CPU, window tables, training records, and
+    one broken intermediate of each kind."""
+    params = yaml.safe_load((REPO / "params.yaml").read_text())
+    params["runtime"]["device"] = "cpu"
+    (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
+    window_rows(35).to_parquet(tmp_path / "tf30.parquet", index=False)
+    window_rows(15).to_parquet(tmp_path / "tf10.parquet", index=False)
+    (tmp_path / "trained.json").write_text(json.dumps({"trained": True, "train": {}}))
+    rewrite_npz(sdd_maps(tmp_path / "semantic_maps") / "maps.npz", gates_9=np.zeros((6, 8, 10), np.uint8))
+    edit_json(ethucy_scenes(tmp_path / "windows" / "ethucy_semantic") / "index.json", nan_homography)
+    (tmp_path / "ind").mkdir()
+    (tmp_path / "ind" / "index.json").write_text(json.dumps({"provided": "yes"}))
+    edit_json(write_labels_folder(tmp_path / "labels", {"gates_1": "train"}) / "index.json",
+              lambda i: i["videos"]["gates_1"].update(split="dev"))
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+SDD_MAPS = r"semantic_maps/maps.npz: \['gates_9'\] not listed in semantic_maps/index.json$"
+ETH_INDEX = r"windows/ethucy_semantic/index.json: scenes.eth.homography: expected a 3 x 3 matrix"
+IND_INDEX = r"ind/index.json: provided: expected bool, got str 'yes'$"
+LABELS_INDEX = r"labels/index.json: videos.gates_1.split: expected one of \['train', 'test', 'none'\]"
+
+
+STAGE_CASES = [
+    (train_ynet, ["--windows", "tf30.parquet", "--semantic-maps", "semantic_maps", "--sdd", "sdd",
+                  "--checkpoint-dir", "out/ck", "--model", "out/model.pt", "--history", "out/h.csv",
+                  "--metrics", "out/m.json"], SDD_MAPS),
+    (evaluate_ynet, ["--windows", "tf30.parquet", "--model", "model.pt", "--semantic-maps", "semantic_maps",
+                     "--sdd", "sdd", "--metrics", "out/m.json", "--qualitative", "out/q.npz"], SDD_MAPS),
+    (train_ynet_horizon, ["--horizon", "10", "--table", "tf10.parquet", "--semantic-maps", "semantic_maps",
+                          "--sdd", "sdd", "--checkpoint-dir", "out/ck", "--metrics", "out/m.json"], SDD_MAPS),
+    (evaluate_ynet_horizon, ["--horizon", "10", "--table", "tf10.parquet", "--semantic-maps",
+                             "semantic_maps", "--sdd", "sdd", "--checkpoint-dir", "ck", "--train-metrics",
+                             "trained.json", "--metrics", "out/m.json"], SDD_MAPS),
+    (train_short_term_ynet, ["--dataset", "eth", "--windows", "windows", "--maps", "windows/ethucy_semantic",
+                             "--checkpoint-dir", "out/ck", "--metrics", "out/m.json"], ETH_INDEX),
+    (evaluate_short_term_ynet, ["--dataset", "eth", "--windows", "windows", "--maps",
+                                "windows/ethucy_semantic", "--checkpoint-dir", "ck", "--train-metrics",
+                                "trained.json", "--metrics", "out/m.json"], ETH_INDEX),
+    (train_short_term_baseline, ["--dataset", "eth", "--model", "sgan", "--windows", "windows",
+                                 "--checkpoint-dir", "out/ck", "--metrics", "out/m.json"], ETH_INDEX),
+    (evaluate_short_term_baseline, ["--dataset", "eth", "--model", "sgan", "--windows", "windows",
+                                    "--checkpoint-dir", "ck", "--train-metrics", "trained.json",
+                                    "--metrics", "out/m.json"], ETH_INDEX),
+    (train_ind, ["--ind", "ind", "--segmentation-model", "unet.pt", "--checkpoint-dir", "out/ck",
+                 "--metrics", "out/m.json"], IND_INDEX),
+    (evaluate_ind, ["--ind", "ind", "--checkpoint-dir", "ck", "--train-metrics", "trained.json",
+                    "--metrics", "out/m.json"], IND_INDEX),
+    (segmentation_stage, ["--sdd", "sdd", "--labels", "labels", "--checkpoint", "out/last.pt", "--model",
+                          "out/model.pt", "--log", "out/log.csv"], LABELS_INDEX),
+    (semantic_maps_stage, ["--sdd", "sdd", "--labels", "labels", "--model", "none.pt", "--out", "out/maps",
+                           "--metrics", "out/m.json", "--figures", "out/figures"], LABELS_INDEX),
+]
+
+
+@pytest.mark.parametrize("stage, argv, message", STAGE_CASES,
+                         ids=[stage.__name__.rsplit(".", 1)[-1] for stage, _, _ in STAGE_CASES])
+def test_a_stage_reading_a_bad_intermediate_stops_naming_it_and_writes_nothing(bad_intermediates, stage,
+                                                                               argv, message):
+    name = stage.__name__.rsplit(".", 1)[-1]
+    with pytest.raises(SystemExit, match=rf"^{name}: {message}"):
+        stage.main(argv)
+    assert nothing_written(bad_intermediates, "out")

@@ -13,6 +13,8 @@ import yaml
 from pipeline.data.semantic_maps import quantise
 from pipeline.data.window_table import conform
 from pipeline.stages import evaluate_ynet_horizon, train_ynet_horizon
+from tests.fixtures import write_maps_folder
+from ynet.segmentation import CLASS_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
 IMAGE_HW = (512, 640)  # original pixels; the cpu profile's resize 0.0625 gives 32 x 40 maps
@@ -46,8 +48,7 @@ def write_fixture(root: Path) -> None:
         probs = rng.dirichlet(np.ones(6), size=(IMAGE_HW[0] // 4, IMAGE_HW[1] // 4))
         maps[scene_id] = quantise(probs.transpose(2, 0, 1).astype(np.float32))
     conform(pd.concat(tables)).to_parquet(root / f"tf{HORIZON}.parquet")
-    (root / "semantic_maps").mkdir()
-    np.savez_compressed(root / "semantic_maps" / "maps.npz", **maps)
+    write_maps_folder(root / "semantic_maps", maps, CLASS_NAMES)
 
 
 def stage_args(horizon: int, *outputs: str) -> list[str]:

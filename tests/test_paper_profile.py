@@ -19,6 +19,8 @@ import yaml
 from pipeline.stages import evaluate_ynet, train_ynet
 from pipeline.data.semantic_maps import quantise
 from pipeline.data.window_table import conform
+from tests.fixtures import write_maps_folder
+from ynet.segmentation import CLASS_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
 IMAGE_HW = (256, 320)  # original pixels; the paper's resize 0.25 gives 64 x 80 maps
@@ -73,8 +75,7 @@ def write_fixture(root: Path, qualitative_scenes: list[str]) -> None:
         maps[scene_id] = quantise(probs.transpose(2, 0, 1).astype(np.float32))
     (root / "windows").mkdir()
     conform(pd.concat(tables)).to_parquet(root / "windows" / "release_tf30.parquet")
-    (root / "semantic_maps").mkdir()
-    np.savez_compressed(root / "semantic_maps" / "maps.npz", **maps)
+    write_maps_folder(root / "semantic_maps", maps, CLASS_NAMES)
 
 
 @pytest.mark.slow

@@ -25,7 +25,7 @@ from pipeline.data.homography import metres_to_pixels
 from pipeline.harness.metrics import window_errors
 from pipeline.config import DATASETS, ShortTermModelsParams, load_profile, read_params
 from pipeline.data.semantic_maps import quantise
-from pipeline.data.short_term import EthUcySceneInfo, load_ethucy_scenes
+from pipeline.data.short_term import MAP_CLASSES, EthUcySceneInfo, load_ethucy_scenes
 from pipeline.harness.baselines.common import subset
 from pipeline.runners.short_term import load_benchmark, to_metres, ynet_settings
 from pipeline.stages import (evaluate_short_term_baseline, evaluate_short_term_ynet,
@@ -33,6 +33,8 @@ from pipeline.stages import (evaluate_short_term_baseline, evaluate_short_term_y
 from pipeline.stages.short_term_tables import main as tables_main
 from pipeline.runners.ynet_training import YnetSettings, train
 from pipeline.data.window_table import WindowArrays
+from tests.fixtures import write_maps_folder
+from ynet.segmentation import CLASS_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
 N_PAST, N_FUTURE = 8, 12
@@ -69,12 +71,13 @@ def window_table(parts: list[tuple[str, str, np.ndarray]], to_metres=None) -> pd
     return pd.DataFrame(rows)
 
 
-def write_maps(folder: Path, names, channels: int, hw=(60, 80)) -> None:
-    """`maps.npz` as pipeline.data.semantic_maps stores it: uint8 probabilities per scene."""
-    folder.mkdir(parents=True, exist_ok=True)
-    maps = np.zeros((channels, *hw), np.float32)
-    maps[1:] = 1.0 / (channels - 1)
-    np.savez_compressed(folder / "maps.npz", **{name: quantise(maps) for name in names})
+def write_maps(folder: Path, names, classes: list[str], hw=(60, 80), key: str = "videos",
+               entries: dict[str, dict] | None = None) -> None:
+    """`maps.npz` + `index.json` as pipeline.data.semantic_maps stores them: uint8 probabilities
+    per scene."""
+    maps = np.zeros((len(classes), *hw), np.float32)
+    maps[1:] = 1.0 / (len(classes) - 1)
+    write_maps_folder(folder, {name: quantise(maps) for name in names}, classes, key, entries)
 
 
 def write_ethucy(windows: Path) -> None:
@@ -90,10 +93,9 @@ def write_ethucy(windows: Path) -> None:
     windows.mkdir(parents=True, exist_ok=True)
     table.to_parquet(windows / "ethucy_eth.parquet", index=False)
     scenes = windows / "ethucy_semantic"
-    write_maps(scenes, ETH_SCENES, channels=3)
-    (scenes / "index.json").write_text(json.dumps({"scenes": {
+    write_maps(scenes, ETH_SCENES, MAP_CLASSES, key="scenes", entries={
         name: {"image_hw": list(IMAGE_HW), "homography": h.tolist(), "swap": swap}
-        for name, (h, swap) in ETH_SCENES.items()}}))
+        for name, (h, swap) in ETH_SCENES.items()})
 
 
 def write_sdd(windows: Path, sdd_root: Path, maps: Path) -> None:
@@ -106,7 +108,7 @@ def write_sdd(windows: Path, sdd_root: Path, maps: Path) -> None:
         folder = sdd_root / "annotations" / "gates" / f"video{video}"
         folder.mkdir(parents=True, exist_ok=True)
         cv2.imwrite(str(folder / "reference.jpg"), np.zeros((*IMAGE_HW, 3), np.uint8))
-    write_maps(maps, [f"gates_{v}" for v in range(3)], channels=6)
+    write_maps(maps, [f"gates_{v}" for v in range(3)], CLASS_NAMES)
 
 
 def tiny_params() -> dict:

@@ -141,6 +141,28 @@ def read_table(path: Path, columns: dict[str, str]) -> pd.DataFrame:
         raise IndError(f"{path}: cannot be read as the inD CSV format ({e})") from e
 
 
+def csv_lines(rows: pd.Index) -> list[int]:
+    """File line numbers of the first (at most 5) data rows `rows` of a CSV read whole (line 1 is
+    the header)."""
+    return [int(i) + 2 for i in rows[:5]]
+
+
+def check_track_rows(tracks: pd.DataFrame, path: Path) -> None:
+    """Every position finite, every (trackId, frame) once: a NaN would reach the windows as a
+    position, and a track twice in one frame has no single position to give."""
+    bad = ~np.isfinite(tracks[["xCenter", "yCenter"]].to_numpy()).all(axis=1)
+    if bad.any():
+        raise IndError(f"{path}: {int(bad.sum())} row(s) with a non-finite xCenter or yCenter, on "
+                       f"line(s) {csv_lines(tracks.index[bad])}")
+    twice = tracks.duplicated(["trackId", "frame"], keep=False)
+    if twice.any():
+        first = tracks.loc[twice].iloc[0]
+        same = twice & tracks["trackId"].eq(first["trackId"]) & tracks["frame"].eq(first["frame"])
+        raise IndError(f"{path}: {int(twice.sum())} row(s) repeat a (trackId, frame), e.g. trackId "
+                       f"{int(first['trackId'])} frame {int(first['frame'])} on lines "
+                       f"{csv_lines(tracks.index[same])}")
+
+
 def list_recordings(data_dir: Path) -> list[int]:
     """The recording numbers of `<path>/data` (one XX_recordingMeta.csv each)."""
     if not data_dir.is_dir():
@@ -185,6 +207,7 @@ def read_recording(data_dir: Path, recording: int, target_fps: int) -> Recording
     tracks = read_table(tracks_path, TRACK_COLUMNS)
     if not tracks["recordingId"].eq(recording).all():
         raise IndError(f"{tracks_path}: rows of another recording than {recording:02d}")
+    check_track_rows(tracks, tracks_path)
     listed = tracks["trackId"].isin(tracks_meta["trackId"])
     if not listed.all():
         unknown = sorted(tracks.loc[~listed, "trackId"].unique().tolist())

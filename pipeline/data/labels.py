@@ -20,7 +20,7 @@ import numpy as np
 
 from pipeline.config import LabelsParams
 from pipeline.data.splits import TEST_VIDEOS, TRAIN_VIDEOS
-from pipeline.io import atomic_dir
+from pipeline.io import IntermediateError, atomic_dir, index_value, read_json_index, same_names
 from ynet.segmentation import CLASS_NAMES, N_SCENE_CLASSES, PAD_CLASS
 
 LABEL_VALUES = tuple(range(1, N_SCENE_CLASSES + 1))  # values a hand mask may hold
@@ -157,10 +157,33 @@ def class_counts(labels: np.ndarray) -> dict[str, int]:
     return {name: int(counts[k]) for k, name in enumerate(CLASS_NAMES)}
 
 
+SPLITS = ("train", "test", "none")  # the values `split_of` gives
+
+
 def read_index(labels_dir: Path) -> dict:
-    """The `index.json` the stage writes: classes and, per video, split, size and pixel counts."""
-    with (Path(labels_dir) / "index.json").open() as f:
-        return json.load(f)
+    """The `index.json` the stage writes: classes and, per video, split, size and pixel counts.
+
+    Checked, with one label map in `maps/` per listed video and none other: segmentation training
+    picks its videos by the listed split. An IntermediateError names the file and the key."""
+    path = Path(labels_dir) / "index.json"
+    index = read_json_index(path)
+    index_value(index, "classes", list, path)
+    index_value(index, "pad_class", int, path)
+    videos = index_value(index, "videos", dict, path)
+    for name in videos:
+        entry = index_value(videos, name, dict, path, "videos.")
+        where = f"videos.{name}."
+        split = index_value(entry, "split", str, path, where)
+        if split not in SPLITS:
+            raise IntermediateError(f"{path}: {where}split: expected one of {list(SPLITS)}, "
+                                    f"got {split!r}")
+        for key in ("height", "width"):
+            if index_value(entry, key, int, path, where) <= 0:
+                raise IntermediateError(f"{path}: {where}{key}: expected a positive size, "
+                                        f"got {entry[key]}")
+    maps = Path(labels_dir) / "maps"
+    same_names(videos, [p.stem for p in maps.glob("*.png")], maps, path)
+    return index
 
 
 def read_label_map(labels_dir: Path, name: str) -> np.ndarray:

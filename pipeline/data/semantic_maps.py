@@ -32,7 +32,8 @@ from pipeline.data.labels import (
     read_label_map,
     reference_image_path,
 )
-from pipeline.io import atomic_dir, write_json
+from pipeline.io import (IntermediateError, atomic_dir, check_array, index_value, positive_ints,
+                         read_json_index, read_npz, write_json)
 from pipeline.runners.segmentation import load_model, pad_to_multiple, scaled_size
 from ynet.segmentation import (
     CLASS_NAMES,
@@ -87,14 +88,40 @@ def dequantise(stored: np.ndarray) -> np.ndarray:
     return probs / np.maximum(probs.sum(axis=0, keepdims=True), 1e-6)
 
 
+def maps_index_shapes(index: dict, path: Path) -> dict[str, tuple[int, int, int]]:
+    """Name -> (C, H, W) of every map the `index.json` at `path` lists, its schema checked: both
+    writers' (SDD videos here, ETH/UCY scenes in `pipeline.data.short_term`) share these keys."""
+    classes = index_value(index, "classes", list, path)
+    if not classes or not all(isinstance(c, str) for c in classes):
+        raise IntermediateError(f"{path}: classes: expected a non-empty list of names, got {classes}")
+    index_value(index, "resize", float, path)
+    index_value(index, "encoding", str, path)
+    key = "videos" if "videos" in index else "scenes"
+    shapes = {}
+    for name in index_value(index, key, dict, path):
+        entry = index_value(index[key], name, dict, path, f"{key}.")
+        shape = index_value(entry, "shape", list, path, f"{key}.{name}.")
+        if not (positive_ints(shape, 3) and shape[0] == len(classes)):
+            raise IntermediateError(f"{path}: {key}.{name}.shape: expected [C, H, W] of positive "
+                                    f"integers with C = {len(classes)} classes, got {shape}")
+        shapes[name] = tuple(shape)
+    return shapes
+
+
 def load_semantic_maps(path: Path) -> dict[str, np.ndarray]:
     """Every video's float32 probability map (C=6, H, W), keyed `<scene>_<k>` (Y-net's input).
 
-    `path`: the stage's output folder or its `maps.npz`.
+    `path`: the stage's output folder or its `maps.npz`, with `index.json` beside it. The index
+    and the archive are checked against each other (same names, each map uint8 of the listed
+    shape): an IntermediateError names the file and what is wrong.
     """
     path = Path(path)
-    with np.load(path / "maps.npz" if path.is_dir() else path) as stored:
-        return {name: dequantise(stored[name]) for name in stored.files}
+    archive = path / "maps.npz" if path.is_dir() else path
+    index_path = archive.parent / "index.json"
+    shapes = maps_index_shapes(read_json_index(index_path), index_path)
+    stored = read_npz(archive, shapes, index_path)
+    return {name: dequantise(check_array(array, np.uint8, shapes[name], archive, name))
+            for name, array in stored.items()}
 
 
 def predicted_labels(probs: np.ndarray) -> np.ndarray:

@@ -41,7 +41,7 @@ from pipeline.data.semantic_maps import QUANT, quantise
 from pipeline.data.splits import FOLD_TEST_SCENES, TEST_VIDEOS, TRAIN_VIDEOS, split_of
 from pipeline.data.window_table import conform
 from pipeline.data.windows import count_windows
-from pipeline.io import atomic_dir
+from pipeline.io import IntermediateError, atomic_dir, index_value, positive_ints, read_json_index
 
 SDD_RATIOS = "H_SDD.txt"  # metres per pixel of every SDD video, inside trajnet-sdd/
 ETHUCY_DIR = Path("data/eth_ucy")  # inside ynet-release/: <scene>_H.txt, <scene>/oracle.png
@@ -383,13 +383,30 @@ class EthUcySceneInfo:
     swap: bool  # the homography takes pixels as (row, column)
 
 
+def scene_info(entry: dict, path: Path, where: str) -> EthUcySceneInfo:
+    """One scene entry of the ETH/UCY `index.json` at `path`, checked: the metres of every
+    ETH/UCY score come from its homography."""
+    hw = index_value(entry, "image_hw", list, path, where)
+    if not positive_ints(hw, 2):
+        raise IntermediateError(f"{path}: {where}image_hw: expected [height, width] of positive "
+                                f"integers, got {hw}")
+    rows = index_value(entry, "homography", list, path, where)
+    numbers = all(isinstance(r, list) and len(r) == 3 and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in r) for r in rows)
+    if not (len(rows) == 3 and numbers and np.isfinite(np.array(rows, np.float64)).all()):
+        raise IntermediateError(f"{path}: {where}homography: expected a 3 x 3 matrix of finite "
+                                f"numbers, got {rows}")
+    swap = index_value(entry, "swap", bool, path, where)
+    return EthUcySceneInfo(tuple(hw), np.array(rows, np.float64), swap)
+
+
 def load_ethucy_scenes(folder: Path) -> dict[str, EthUcySceneInfo]:
     """Per scene: pixel grid, homography and swap flag, from the maps folder's `index.json`."""
-    with (Path(folder) / "index.json").open() as f:
-        index = json.load(f)
-    return {name: EthUcySceneInfo(tuple(entry["image_hw"]), np.array(entry["homography"]),
-                                  bool(entry["swap"]))
-            for name, entry in index["scenes"].items()}
+    path = Path(folder) / "index.json"
+    index = read_json_index(path)
+    scenes = index_value(index, "scenes", dict, path)
+    return {name: scene_info(index_value(scenes, name, dict, path, "scenes."), path, f"scenes.{name}.")
+            for name in scenes}
 
 
 def on_road_fraction(tables: dict[str, pd.DataFrame], release_root: Path) -> dict[str, float]:

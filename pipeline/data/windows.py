@@ -91,9 +91,28 @@ def raw_windows(tracks: pd.DataFrame, params: WindowParams,
     }
 
 
+def reject_rows(table: pd.DataFrame, bad: np.ndarray, name: str, what: str) -> None:
+    """A ReleaseError naming the windows (metaId) and the first row where `bad` holds: one NaN
+    position or negative frame would pass every shape check and poison a whole window's scores."""
+    if bad.any():
+        raise ReleaseError(f"{name}: {int(bad.sum())} row(s) with {what}, in metaId(s) "
+                           f"{sorted(table.loc[bad, 'metaId'].unique().tolist())[:5]}, e.g. row "
+                           f"{table.index[bad][0]}")
+
+
 def validate_release(table: pd.DataFrame, name: str, length: int, stride: int) -> None:
+    """The authors' pickle as the recipe reads it: its columns, numeric values that are finite
+    positions and frames >= 0, whole windows of `length` steps `stride` frames apart, one track and
+    scene each."""
     if list(table.columns) != RELEASE_COLUMNS:
         raise ReleaseError(f"{name}: columns {list(table.columns)}, expected {RELEASE_COLUMNS}")
+    numeric = [c for c in ("trackId", "frame", "x", "y", "metaId")
+               if not pd.api.types.is_numeric_dtype(table[c])]
+    if numeric:
+        raise ReleaseError(f"{name}: column(s) {numeric} not numeric")
+    reject_rows(table, ~np.isfinite(table[["x", "y"]].to_numpy(np.float64)).all(axis=1), name,
+                "a non-finite x or y")
+    reject_rows(table, ~table["frame"].ge(0).to_numpy(), name, "a negative (or missing) frame")
     sizes = table.groupby("metaId").size()
     wrong = sizes[sizes != length]
     if len(wrong):

@@ -51,7 +51,8 @@ from pipeline.device import CPU
 from pipeline.harness import baseline_runs, baselines
 from pipeline.harness.baselines.common import select_split
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet
-from pipeline.io import write_npz
+from pipeline.io import (IntermediateError, check_array, index_value, read_json_index, read_npz,
+                         write_npz)
 from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.segmentation import (downsample_pair, epoch_batches, export_model, learning_rate,
                                            pad_to_multiple, scaled_size, train_step)
@@ -366,7 +367,7 @@ def score_baselines(long: WindowArrays, base: WindowArrays, settings: IndEvalSet
 def read_windows(ind_dir: Path, index: dict, horizon: int) -> WindowArrays:
     name = index["tables"].get(str(horizon))
     if name is None:
-        raise ValueError(f"{ind_dir}/index.json: no window table for t_f = {horizon} s")
+        raise IntermediateError(f"{ind_dir}/index.json: no window table for t_f = {horizon} s")
     return to_arrays(pd.read_parquet(ind_dir / name), index["n_past"])
 
 
@@ -384,8 +385,54 @@ class IndData:
         return {name: (info["height"], info["width"]) for name, info in self.index["scenes"].items()}
 
 
+IND_SPLITS = ("train", "val", "test")
+SCENE_KEYS = {"location": int, "split": str, "height": int, "width": int, "image": str,
+              "labels": str | None}  # what the benchmark reads of each `scenes` entry
+
+
+def check_ind_scene(entry: dict, ind_dir: Path, path: Path, where: str) -> None:
+    """One `scenes` entry of the `ind_windows` index: typed keys, a known split, a positive image
+    size, and the background (and mask) files it names present."""
+    for key, kind in SCENE_KEYS.items():
+        index_value(entry, key, kind, path, where)
+    if entry["split"] not in IND_SPLITS:
+        raise IntermediateError(f"{path}: {where}split: expected one of {list(IND_SPLITS)}, "
+                                f"got {entry['split']!r}")
+    if entry["height"] <= 0 or entry["width"] <= 0:
+        raise IntermediateError(f"{path}: {where}height, width: expected positive sizes, got "
+                                f"{entry['height']}, {entry['width']}")
+    for key in ("image", "labels"):
+        if entry[key] is not None and not (ind_dir / entry[key]).is_file():
+            raise IntermediateError(f"{path}: {where}{key}: {entry[key]} not in {ind_dir}")
+
+
 def read_index(ind_dir: Path) -> dict:
-    return json.loads((Path(ind_dir) / "index.json").read_text())
+    """The `index.json` of `ind_windows`, checked: the keys the benchmark reads, typed, and every
+    table and image it names present. An IntermediateError names the file and the key."""
+    ind_dir = Path(ind_dir)
+    path = ind_dir / "index.json"
+    index = read_json_index(path)
+    if not index_value(index, "provided", bool, path):
+        index_value(index, "reason", str, path)
+        return index
+    index_value(index, "n_past", int, path)
+    index_value(index, "horizon", int, path)
+    for horizon, name in index_value(index, "tables", dict, path).items():
+        if not (isinstance(name, str) and (ind_dir / name).is_file()):
+            raise IntermediateError(f"{path}: tables.{horizon}: {name!r} not a file in {ind_dir}")
+    scenes = index_value(index, "scenes", dict, path)
+    for name in scenes:
+        check_ind_scene(index_value(scenes, name, dict, path, "scenes."), ind_dir, path,
+                        f"scenes.{name}.")
+    return index
+
+
+def read_maps(checkpoint_dir: Path, index: dict, ind_dir: Path) -> dict[str, np.ndarray]:
+    """The maps `train_benchmark` kept: one finite float32 (C, H, W) per scene of the index."""
+    path = checkpoint_dir / MAPS
+    stored = read_npz(path, index["scenes"], Path(ind_dir) / "index.json")
+    return {name: check_array(array, np.float32, (N_OUTPUTS, None, None), path, name)
+            for name, array in stored.items()}
 
 
 def read_data(ind_dir: Path, index: dict) -> IndData:
@@ -403,8 +450,8 @@ def train_benchmark(ind_dir: Path, segmentation_model: Path, checkpoint_dir: Pat
                     settings: IndTrainSettings, device: torch.device = CPU,
                     preemption: Preemption = NEVER) -> dict:
     """Train everything into `checkpoint_dir`; returns the training record (or why there is none)."""
+    index = read_index(ind_dir)  # checked before anything is written
     checkpoint_dir.mkdir(parents=True, exist_ok=True)
-    index = read_index(ind_dir)
     if not index["provided"]:
         return not_provided_record(index["reason"])
     data = read_data(ind_dir, index)
@@ -429,8 +476,7 @@ def evaluate_benchmark(ind_dir: Path, checkpoint_dir: Path, trained: dict, setti
         return not_provided_record(index["reason"])
     data = read_data(ind_dir, index)
     start = time.perf_counter()
-    with np.load(checkpoint_dir / MAPS) as stored:
-        maps = {name: stored[name] for name in stored.files}
+    maps = read_maps(checkpoint_dir, index, ind_dir)
     ynet = score_ynet(data.splits["test"], maps, data.sizes, settings, checkpoint_dir / "ynet", device)
     return {
         "provided": True, "status": "ok", "profile": settings.profile,

@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
                              load_profile, load_section, read_params)
 from pipeline.device import describe, select_device
-from pipeline.io import write_json
+from pipeline.io import IntermediateError, write_json
 from pipeline.runners.short_term import load_dataset, run_record, score_ynet, ynet_inputs
 
 MODEL = "ynet"
@@ -56,8 +57,11 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
     print(f"evaluate_short_term_ynet: on {describe(device)}")
 
-    bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
-    maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)
+    try:
+        bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
+        maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)
+    except IntermediateError as e:
+        sys.exit(f"evaluate_short_term_ynet: {e}")
     ks = settings.ks(args.dataset)
     results, seconds, reported = score_ynet(bench, maps, sizes, args.checkpoint_dir, settings, ks,
                                             device)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -26,7 +27,7 @@ from pipeline.config import (CwsParams, EvalParams, HorizonParams, RuntimeParams
                              WindowParams, load_profile, load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.device import describe, select_device
-from pipeline.io import write_json
+from pipeline.io import IntermediateError, write_json
 from pipeline.runners.ynet_horizon import horizon_splits, training_summary
 from pipeline.runners.ynet_scoring import evaluate, load_for_scoring, sampling_options
 from pipeline.runners.ynet_training import image_sizes
@@ -58,8 +59,11 @@ def main(argv: list[str] | None = None) -> None:
 
     test = horizon_splits(args.table, n_past, args.horizon)["test"]
     print(f"evaluate_ynet_horizon: scoring on {describe(device)}")
-    model, settings, scenes = load_for_scoring(args.checkpoint_dir / "best.pt", test,
-                                               load_semantic_maps(args.semantic_maps),
+    try:
+        semantic_maps = load_semantic_maps(args.semantic_maps)
+    except IntermediateError as e:
+        sys.exit(f"evaluate_ynet_horizon: {e}")
+    model, settings, scenes = load_for_scoring(args.checkpoint_dir / "best.pt", test, semantic_maps,
                                                image_sizes(args.sdd, set(test.scene_id)), device)
     options = sampling_options(eval_params.k_e, 1, ttst, cws, True, True)
     start = time.perf_counter()

@@ -13,11 +13,13 @@ test videos (IoU, mIoU) and drawn (`pipeline.data.semantic_maps`). Params: `sema
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from pipeline.config import RuntimeParams, SemanticParams, load_section, read_params
 from pipeline.data.semantic_maps import build_maps
 from pipeline.device import describe, select_device
+from pipeline.io import IntermediateError
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -34,8 +36,11 @@ def main(argv: list[str] | None = None) -> None:
     runtime = load_section(RuntimeParams, "runtime", raw)
     device = select_device(runtime.device)
     print(f"semantic_maps: source {params.source}, on {describe(device)}")
-    metrics = build_maps(args.sdd, args.labels, args.model, args.out, args.metrics, args.figures,
-                         params, device)
+    try:
+        metrics = build_maps(args.sdd, args.labels, args.model, args.out, args.metrics, args.figures,
+                             params, device)
+    except IntermediateError as e:
+        sys.exit(f"semantic_maps: {e}")
     print(f"semantic_maps ({params.source}): test mIoU {metrics['miou']} over "
           f"{metrics['test_videos']} videos; IoU {metrics['iou']}")
 

@@ -15,11 +15,12 @@ Params: `profile`, `runtime.device`, `runtime.max_minutes`, `ind_benchmark.<prof
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from pipeline.config import read_params
 from pipeline.device import describe, select_device
-from pipeline.io import write_json
+from pipeline.io import IntermediateError, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ind import IndTrainSettings, train_benchmark
 
@@ -37,8 +38,11 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(settings.runtime.device)
     print(f"train_ind: on {describe(device)}")
     with Preemption(settings.runtime.max_minutes) as preemption:
-        record = train_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir, settings,
-                                 device, preemption)
+        try:
+            record = train_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir,
+                                     settings, device, preemption)
+        except IntermediateError as e:
+            sys.exit(f"train_ind: {e}")
     write_json(record, args.metrics, sort_keys=True)
     if not record["provided"]:
         print(f"train_ind: inD not provided: {record['reason']}")

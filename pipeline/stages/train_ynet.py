@@ -15,6 +15,7 @@ exit 143 / 130 / 75. Params: `ynet.<profile>`, `profile`, `runtime.device`, `run
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -23,7 +24,7 @@ from pipeline.config import RuntimeParams, load_profile, load_section, read_para
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
 from pipeline.device import describe, select_device
-from pipeline.io import write_json
+from pipeline.io import IntermediateError, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_training import YnetSettings, image_sizes, scale_waypoints, train
 
@@ -51,7 +52,10 @@ def main(argv: list[str] | None = None) -> None:
     n_future = train_arrays.future.shape[1]
     if n_future != 30:
         settings.waypoints = scale_waypoints(settings.waypoints, n_future)
-    semantic_maps = load_semantic_maps(args.semantic_maps)
+    try:
+        semantic_maps = load_semantic_maps(args.semantic_maps)
+    except IntermediateError as e:
+        sys.exit(f"train_ynet: {e}")
     sizes = image_sizes(args.sdd, set(train_arrays.scene_id) | set(val_arrays.scene_id))
     with Preemption(runtime.max_minutes) as preemption:
         summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, args.n_past,

@@ -17,6 +17,7 @@ not train gets the not-run record and an empty checkpoint folder. Params: `profi
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -24,7 +25,7 @@ from pipeline.config import (HorizonParams, RuntimeParams, WindowParams, load_pr
                              read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.device import describe, select_device
-from pipeline.io import write_json
+from pipeline.io import IntermediateError, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_horizon import horizon_splits, not_run_record
 from pipeline.runners.ynet_training import YnetSettings, image_sizes, scale_waypoints, train
@@ -43,8 +44,8 @@ def main(argv: list[str] | None = None) -> None:
     params = read_params()
     profile = params["profile"]
     horizon_params = load_profile(HorizonParams, "ynet_horizons", params)
-    args.checkpoint_dir.mkdir(parents=True, exist_ok=True)
     if args.horizon not in horizon_params.horizons:
+        args.checkpoint_dir.mkdir(parents=True, exist_ok=True)  # a declared output, even empty
         write_json(not_run_record(args.horizon, profile, horizon_params), args.metrics)
         print(f"train_ynet_horizon: t_f = {args.horizon} s not trained in the {profile} profile")
         return
@@ -58,7 +59,11 @@ def main(argv: list[str] | None = None) -> None:
     epochs = {int(h): int(e) for h, e in horizon_params.epochs.items()}[args.horizon]
     settings = replace(settings, epochs=epochs,
                        waypoints=scale_waypoints(settings.waypoints, args.horizon))
-    semantic_maps = load_semantic_maps(args.semantic_maps)
+    try:
+        semantic_maps = load_semantic_maps(args.semantic_maps)
+    except IntermediateError as e:
+        sys.exit(f"train_ynet_horizon: {e}")
+    args.checkpoint_dir.mkdir(parents=True, exist_ok=True)  # after the inputs are checked
     scene_ids = set().union(*(arrays.scene_id for arrays in splits.values()))
     sizes = image_sizes(args.sdd, scene_ids)
     with Preemption(runtime.max_minutes) as preemption:
