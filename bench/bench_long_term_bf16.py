@@ -1,0 +1,96 @@
+"""bfloat16 trajectory decoding for the long-term Y-net: what it changes and what it saves, on validation.
+
+Not a test: prints numbers. The evidence behind `eval.cpu.bf16`: the trained `cpu` model
+(`data/ynet/model.pt`, stage train_ynet) scores the release's *validation* windows (never the test
+set) at the main setting (TTST + CWS, K_e x K_a from `eval.cpu`, `ttst` / `cws` from params.yaml)
+three times, same model and same input order:
+
+- float32, seed s (the reference);
+- bfloat16 trajectory decoder, seed s (same goals and waypoints: only the decoder's precision moves);
+- float32, seed s + 1 (another evaluation round: the spread a reader already sees as "±").
+
+bf16 is acceptable when its change of ADE is small beside the round-to-round change. FDE comes from
+the goals, which bf16 never touches, so it must be identical.
+
+    python bench/bench_long_term_bf16.py [--threads 2] [--windows data/windows/release_tf30.parquet]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench.bench_ynet import keep_freed_memory  # noqa: E402
+from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
+                             load_section, read_params)
+from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
+from pipeline.data.window_table import to_arrays  # noqa: E402
+from pipeline.harness.metrics import window_errors  # noqa: E402
+from pipeline.runners.ynet_scoring import (load_for_scoring, predict_scenes,  # noqa: E402
+                                           sampling_options)
+from pipeline.runners.ynet_training import image_sizes  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--windows", type=Path, default=Path("data/windows/release_tf30.parquet"))
+    parser.add_argument("--model", type=Path, default=Path("data/ynet/model.pt"))
+    parser.add_argument("--semantic-maps", type=Path, default=Path("data/semantic_maps"))
+    parser.add_argument("--sdd", type=Path, default=Path("data/raw/sdd"))
+    parser.add_argument("--n-past", type=int, default=5)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    keep_freed_memory()
+
+    params = read_params()
+    eval_params = load_profile(EvalParams, "eval", {**params, "profile": "cpu"})
+    options = sampling_options(eval_params.k_e, eval_params.k_a, load_section(TtstParams, "ttst", params),
+                               load_section(CwsParams, "cws", params), True, True)
+    table = pd.read_parquet(args.windows)
+    val = to_arrays(table[table["split"] == "val"], args.n_past)
+    model, settings, scenes = load_for_scoring(args.model, val, load_semantic_maps(args.semantic_maps),
+                                               image_sizes(args.sdd, set(val.scene_id)),
+                                               torch.device("cpu"))
+    torch.set_num_threads(args.threads)
+    print(f"torch {torch.__version__}, {args.threads} threads; {len(val)} validation windows, "
+          f"K_e {options.K_e} x K_a {options.K_a}, model {args.model}")
+
+    def score(bf16: bool, seed: int) -> tuple[np.ndarray, np.ndarray, float]:
+        run_params = dataclasses.replace(eval_params, bf16=bf16)
+        start = time.perf_counter()
+        paths, goals = predict_scenes(model, scenes, settings, options, seed, run_params, len(val),
+                                      f"bf16={bf16} seed={seed}")
+        return paths, goals, time.perf_counter() - start
+
+    runs = {"float32, seed s": score(False, eval_params.seed),
+            "bfloat16, seed s": score(True, eval_params.seed),
+            "float32, seed s+1": score(False, eval_params.seed + 1)}
+    print(f"\n{'run':<20}{'ADE px':>10}{'FDE px':>10}{'s/window':>10}")
+    errors = {}
+    for name, (paths, goals, seconds) in runs.items():
+        errors[name] = window_errors(paths, val.future, goals)
+        print(f"{name:<20}{errors[name].ade.mean():>10.3f}{errors[name].fde.mean():>10.3f}"
+              f"{seconds / len(val):>10.3f}")
+    reference, bf16 = runs["float32, seed s"][0], runs["bfloat16, seed s"][0]
+    moved = np.linalg.norm(bf16 - reference, axis=-1)  # (N, K, n_f) px
+    ade_bf16 = errors["bfloat16, seed s"].ade.mean() - errors["float32, seed s"].ade.mean()
+    ade_round = errors["float32, seed s+1"].ade.mean() - errors["float32, seed s"].ade.mean()
+    same_goals = np.array_equal(runs["bfloat16, seed s"][1], runs["float32, seed s"][1])
+    print(f"\nbf16 - float32, same seed: ADE {ade_bf16:+.3f} px, FDE "
+          f"{'identical' if same_goals else 'DIFFERENT'}; trajectory points moved "
+          f"{moved.mean():.3f} px mean, {moved.max():.2f} px max")
+    print(f"another round (seed s+1) - seed s, float32: ADE {ade_round:+.3f} px")
+    print(f"speed: bf16 {runs['float32, seed s'][2] / runs['bfloat16, seed s'][2]:.2f}x float32")
+
+
+if __name__ == "__main__":
+    main()
