@@ -22,12 +22,14 @@ inside training.
 
 from __future__ import annotations
 
+import functools
 import glob
 import io
 import json
 import os
 import re
 import shutil
+import sys
 import tempfile
 import zipfile
 from collections.abc import Callable, Collection, Iterator
@@ -165,6 +167,22 @@ class IntermediateError(ValueError):
     """A file one stage wrote for a later one is not what the writer writes."""
 
 
+def exit_on_bad_intermediate(main: Callable[..., None]) -> Callable[..., None]:
+    """Decorate a stage's `main`: an IntermediateError becomes the one-line exit
+    `<stage>: <file>: <what>` (the stage module's name, also when run as `python -m`)."""
+
+    @functools.wraps(main)
+    def wrapper(*args, **kwargs):
+        try:
+            return main(*args, **kwargs)
+        except IntermediateError as e:
+            spec = getattr(sys.modules.get(main.__module__), "__spec__", None)
+            stage = (spec.name if spec else main.__module__).rsplit(".", 1)[-1]
+            raise SystemExit(f"{stage}: {e}") from None
+
+    return wrapper
+
+
 def read_json_index(path: Path) -> dict:
     """The JSON object at `path`, or an IntermediateError naming the file."""
     try:
@@ -178,10 +196,11 @@ def read_json_index(path: Path) -> dict:
     return value
 
 
-def index_value(mapping: dict, key: str, kind: Any, path: Path, where: str = "") -> Any:
+def index_value(mapping: dict, key: str, kind: Any, path: Path, where: str = "",
+                choices: Collection | None = None) -> Any:
     """`mapping[key]`, checked to be of `kind`: dict, list, or a scalar annotation as params take
-    (bool, int, float, str, `X | None`; a bool is no number). The error names the file and the key
-    path (`where` is the path of `mapping`, e.g. 'videos.gates_2.')."""
+    (bool, int, float, str, `X | None`; a bool is no number), and one of `choices` if given. The
+    error names the file and the key path (`where` is the path of `mapping`, e.g. 'videos.gates_2.')."""
     if key not in mapping:
         raise IntermediateError(f"{path}: {where}{key}: missing")
     value = mapping[key]
@@ -192,6 +211,8 @@ def index_value(mapping: dict, key: str, kind: Any, path: Path, where: str = "")
         wrong = scalar_type_error(kind, value)
     if wrong:
         raise IntermediateError(f"{path}: {where}{key}: {wrong}")
+    if choices is not None and value not in choices:
+        raise IntermediateError(f"{path}: {where}{key}: expected one of {list(choices)}, got {value!r}")
     return value
 
 

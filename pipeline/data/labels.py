@@ -173,10 +173,7 @@ def read_index(labels_dir: Path) -> dict:
     for name in videos:
         entry = index_value(videos, name, dict, path, "videos.")
         where = f"videos.{name}."
-        split = index_value(entry, "split", str, path, where)
-        if split not in SPLITS:
-            raise IntermediateError(f"{path}: {where}split: expected one of {list(SPLITS)}, "
-                                    f"got {split!r}")
+        index_value(entry, "split", str, path, where, choices=SPLITS)
         for key in ("height", "width"):
             if index_value(entry, key, int, path, where) <= 0:
                 raise IntermediateError(f"{path}: {where}{key}: expected a positive size, "

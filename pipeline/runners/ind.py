@@ -394,10 +394,7 @@ def check_ind_scene(entry: dict, ind_dir: Path, path: Path, where: str) -> None:
     """One `scenes` entry of the `ind_windows` index: typed keys, a known split, a positive image
     size, and the background (and mask) files it names present."""
     for key, kind in SCENE_KEYS.items():
-        index_value(entry, key, kind, path, where)
-    if entry["split"] not in IND_SPLITS:
-        raise IntermediateError(f"{path}: {where}split: expected one of {list(IND_SPLITS)}, "
-                                f"got {entry['split']!r}")
+        index_value(entry, key, kind, path, where, choices=IND_SPLITS if key == "split" else None)
     if entry["height"] <= 0 or entry["width"] <= 0:
         raise IntermediateError(f"{path}: {where}height, width: expected positive sizes, got "
                                 f"{entry['height']}, {entry['width']}")

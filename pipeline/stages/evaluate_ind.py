@@ -15,15 +15,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 from pipeline.config import read_params
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ind import IndEvalSettings, evaluate_benchmark
 
 
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ind", type=Path, required=True, help="output folder of stage ind_windows")
@@ -35,10 +35,7 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(settings.runtime.device)
     print(f"evaluate_ind: on {describe(device)}")
     trained = json.loads(args.train_metrics.read_text())
-    try:
-        result = evaluate_benchmark(args.ind, args.checkpoint_dir, trained, settings, device)
-    except IntermediateError as e:
-        sys.exit(f"evaluate_ind: {e}")
+    result = evaluate_benchmark(args.ind, args.checkpoint_dir, trained, settings, device)
     write_json(result, args.metrics, sort_keys=True)
     if not result["provided"]:
         print(f"evaluate_ind: inD not provided: {result['reason']}")

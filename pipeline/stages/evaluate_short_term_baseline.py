@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 import torch
@@ -26,10 +25,11 @@ from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTe
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.short_term import load_dataset, run_record, score_baseline
 
 
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, choices=DATASETS)
@@ -50,10 +50,7 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
     print(f"evaluate_short_term_baseline: {args.model} on {describe(device)}")
 
-    try:
-        bench, _ = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
-    except IntermediateError as e:
-        sys.exit(f"evaluate_short_term_baseline: {e}")
+    bench, _ = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
     torch.set_num_threads(load_section(TrainBaselineParams, "train_baseline", params).threads)
     ks = settings.ks(args.dataset)
     results, seconds = score_baseline(args.model, bench, args.checkpoint_dir, ks, settings.rounds,

@@ -19,18 +19,18 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
                              load_profile, load_section, read_params)
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.short_term import load_dataset, run_record, score_ynet, ynet_inputs
 
 MODEL = "ynet"
 
 
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, choices=DATASETS)
@@ -57,11 +57,8 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
     print(f"evaluate_short_term_ynet: on {describe(device)}")
 
-    try:
-        bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
-        maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)
-    except IntermediateError as e:
-        sys.exit(f"evaluate_short_term_ynet: {e}")
+    bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
+    maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)
     ks = settings.ks(args.dataset)
     results, seconds, reported = score_ynet(bench, maps, sizes, args.checkpoint_dir, settings, ks,
                                             device)

@@ -15,7 +15,6 @@ as --n-past).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import pandas as pd
@@ -25,11 +24,12 @@ from pipeline.config import (CwsParams, EvalParams, RuntimeParams, TtstParams, l
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json, write_npz
+from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
 from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring, qualitative_arrays
 from pipeline.runners.ynet_training import image_sizes
 
 
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--windows", type=Path, required=True)
@@ -50,10 +50,7 @@ def main(argv: list[str] | None = None) -> None:
     print(f"evaluate_ynet: on {describe(device)}")
     table = pd.read_parquet(args.windows)
     test = to_arrays(table[table["split"] == "test"], args.n_past)
-    try:
-        semantic_maps = load_semantic_maps(args.semantic_maps)
-    except IntermediateError as e:
-        sys.exit(f"evaluate_ynet: {e}")
+    semantic_maps = load_semantic_maps(args.semantic_maps)
     model, settings, scenes = load_for_scoring(args.model, test, semantic_maps,
                                                image_sizes(args.sdd, set(test.scene_id)), device)
 

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -27,12 +26,13 @@ from pipeline.config import (CwsParams, EvalParams, HorizonParams, RuntimeParams
                              WindowParams, load_profile, load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ynet_horizon import horizon_splits, training_summary
 from pipeline.runners.ynet_scoring import evaluate, load_for_scoring, sampling_options
 from pipeline.runners.ynet_training import image_sizes
 
 
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
@@ -59,10 +59,7 @@ def main(argv: list[str] | None = None) -> None:
 
     test = horizon_splits(args.table, n_past, args.horizon)["test"]
     print(f"evaluate_ynet_horizon: scoring on {describe(device)}")
-    try:
-        semantic_maps = load_semantic_maps(args.semantic_maps)
-    except IntermediateError as e:
-        sys.exit(f"evaluate_ynet_horizon: {e}")
+    semantic_maps = load_semantic_maps(args.semantic_maps)
     model, settings, scenes = load_for_scoring(args.checkpoint_dir / "best.pt", test, semantic_maps,
                                                image_sizes(args.sdd, set(test.scene_id)), device)
     options = sampling_options(eval_params.k_e, 1, ttst, cws, True, True)

@@ -13,7 +13,6 @@ the same weights. Params: `segmentation.<profile>`, `profile`, `runtime.device`,
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import torch
@@ -21,13 +20,14 @@ import torch
 from pipeline.config import RuntimeParams, SegmentationParams, load_profile, load_section, read_params
 from pipeline.data.labels import read_index
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError
+from pipeline.io import exit_on_bad_intermediate
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.segmentation import (export_model, fingerprint, load_training_scenes, train,
                                            write_log)
 
 
 @exit_when_stopped
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sdd", type=Path, required=True, help="SDD root holding annotations/")
@@ -47,10 +47,7 @@ def main(argv: list[str] | None = None) -> None:
     torch.set_num_threads(args.threads)
     device = select_device(runtime.device)
 
-    try:
-        index = read_index(args.labels)
-    except IntermediateError as e:
-        sys.exit(f"segmentation: {e}")
+    index = read_index(args.labels)
     names = sorted(n for n, v in index["videos"].items() if v["split"] == "train")
     if not names:
         raise SystemExit(f"segmentation: no train videos in {args.labels}/index.json")

@@ -13,15 +13,15 @@ test videos (IoU, mIoU) and drawn (`pipeline.data.semantic_maps`). Params: `sema
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from pipeline.config import RuntimeParams, SemanticParams, load_section, read_params
 from pipeline.data.semantic_maps import build_maps
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError
+from pipeline.io import exit_on_bad_intermediate
 
 
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sdd", type=Path, required=True, help="SDD root holding annotations/")
@@ -36,11 +36,8 @@ def main(argv: list[str] | None = None) -> None:
     runtime = load_section(RuntimeParams, "runtime", raw)
     device = select_device(runtime.device)
     print(f"semantic_maps: source {params.source}, on {describe(device)}")
-    try:
-        metrics = build_maps(args.sdd, args.labels, args.model, args.out, args.metrics, args.figures,
-                             params, device)
-    except IntermediateError as e:
-        sys.exit(f"semantic_maps: {e}")
+    metrics = build_maps(args.sdd, args.labels, args.model, args.out, args.metrics, args.figures,
+                         params, device)
     print(f"semantic_maps ({params.source}): test mIoU {metrics['miou']} over "
           f"{metrics['test_videos']} videos; IoU {metrics['iou']}")
 

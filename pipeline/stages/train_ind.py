@@ -15,17 +15,17 @@ Params: `profile`, `runtime.device`, `runtime.max_minutes`, `ind_benchmark.<prof
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from pipeline.config import read_params
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ind import IndTrainSettings, train_benchmark
 
 
 @exit_when_stopped
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ind", type=Path, required=True, help="output folder of stage ind_windows")
@@ -38,11 +38,8 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(settings.runtime.device)
     print(f"train_ind: on {describe(device)}")
     with Preemption(settings.runtime.max_minutes) as preemption:
-        try:
-            record = train_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir,
-                                     settings, device, preemption)
-        except IntermediateError as e:
-            sys.exit(f"train_ind: {e}")
+        record = train_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir,
+                                 settings, device, preemption)
     write_json(record, args.metrics, sort_keys=True)
     if not record["provided"]:
         print(f"train_ind: inD not provided: {record['reason']}")

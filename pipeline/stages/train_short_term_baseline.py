@@ -17,7 +17,6 @@ config; resumable, and SIGTERM / SIGINT or `runtime.max_minutes` checkpoint mid-
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -28,12 +27,13 @@ from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTe
                              read_params)
 from pipeline.device import describe, select_device
 from pipeline.harness.baseline_runs import model_config
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import benchmark_of, load_dataset, train_baseline, training_record
 
 
 @exit_when_stopped
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, choices=DATASETS)
@@ -51,10 +51,7 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(runtime.device)
     print(f"train_short_term_baseline: {args.model} on {describe(device)}")
 
-    try:
-        bench, _ = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
-    except IntermediateError as e:
-        sys.exit(f"train_short_term_baseline: {e}")
+    bench, _ = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
     seeds = load_section(TrainBaselineParams, "train_baseline", params)
     torch.set_num_threads(seeds.threads)
     config = replace(model_config(args.model, params),

@@ -18,13 +18,12 @@ folder (resumable; SIGTERM / SIGINT or `runtime.max_minutes` checkpoint mid-epoc
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
                              load_profile, load_section, read_params)
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import (load_dataset, not_run_record, train_ynet, training_record,
                                          ynet_inputs, ynet_settings)
@@ -34,6 +33,7 @@ MODEL = "ynet"
 
 
 @exit_when_stopped
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, choices=DATASETS)
@@ -59,12 +59,9 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(runtime.device)
     print(f"train_short_term_ynet: on {describe(device)}")
 
-    try:
-        bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
-        scene_ids = set(bench.train.scene_id) | set(bench.val.scene_id) | set(bench.test.scene_id)
-        maps, sizes, classes = ynet_inputs(args.maps, args.sdd, scene_ids, ethucy_scenes)
-    except IntermediateError as e:
-        sys.exit(f"train_short_term_ynet: {e}")
+    bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
+    scene_ids = set(bench.train.scene_id) | set(bench.val.scene_id) | set(bench.test.scene_id)
+    maps, sizes, classes = ynet_inputs(args.maps, args.sdd, scene_ids, ethucy_scenes)
     model_settings = ynet_settings(load_profile(YnetSettings, "ynet", params), settings,
                                    args.dataset, windows.n_future, classes)
     with Preemption(runtime.max_minutes) as preemption:

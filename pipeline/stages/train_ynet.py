@@ -15,7 +15,6 @@ exit 143 / 130 / 75. Params: `ynet.<profile>`, `profile`, `runtime.device`, `run
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import pandas as pd
@@ -24,12 +23,13 @@ from pipeline.config import RuntimeParams, load_profile, load_section, read_para
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_training import YnetSettings, image_sizes, scale_waypoints, train
 
 
 @exit_when_stopped
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--windows", type=Path, required=True, help="window table (parquet)")
@@ -52,10 +52,7 @@ def main(argv: list[str] | None = None) -> None:
     n_future = train_arrays.future.shape[1]
     if n_future != 30:
         settings.waypoints = scale_waypoints(settings.waypoints, n_future)
-    try:
-        semantic_maps = load_semantic_maps(args.semantic_maps)
-    except IntermediateError as e:
-        sys.exit(f"train_ynet: {e}")
+    semantic_maps = load_semantic_maps(args.semantic_maps)
     sizes = image_sizes(args.sdd, set(train_arrays.scene_id) | set(val_arrays.scene_id))
     with Preemption(runtime.max_minutes) as preemption:
         summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, args.n_past,

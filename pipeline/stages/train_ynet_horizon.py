@@ -17,7 +17,6 @@ not train gets the not-run record and an empty checkpoint folder. Params: `profi
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -25,13 +24,14 @@ from pipeline.config import (HorizonParams, RuntimeParams, WindowParams, load_pr
                              read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.device import describe, select_device
-from pipeline.io import IntermediateError, write_json
+from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_horizon import horizon_splits, not_run_record
 from pipeline.runners.ynet_training import YnetSettings, image_sizes, scale_waypoints, train
 
 
 @exit_when_stopped
+@exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
@@ -59,10 +59,7 @@ def main(argv: list[str] | None = None) -> None:
     epochs = {int(h): int(e) for h, e in horizon_params.epochs.items()}[args.horizon]
     settings = replace(settings, epochs=epochs,
                        waypoints=scale_waypoints(settings.waypoints, args.horizon))
-    try:
-        semantic_maps = load_semantic_maps(args.semantic_maps)
-    except IntermediateError as e:
-        sys.exit(f"train_ynet_horizon: {e}")
+    semantic_maps = load_semantic_maps(args.semantic_maps)
     args.checkpoint_dir.mkdir(parents=True, exist_ok=True)  # after the inputs are checked
     scene_ids = set().union(*(arrays.scene_id for arrays in splits.values()))
     sizes = image_sizes(args.sdd, scene_ids)
