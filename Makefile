@@ -13,8 +13,8 @@ $(VENV)/.installed: pyproject.toml
 	$(BIN)/python -m pip install -q -e '.[test]'
 	touch $@
 
-repro: env
-	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/dvc repro
+repro: env  # dvc repro, each stage clocked into reports/stage_times.json (tools/timed_repro.py)
+	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python tools/timed_repro.py
 
 test: env
 	if [ "$$CI" = true ]; then bash tests/setup_chromium.sh; fi

@@ -625,6 +625,31 @@ class YnetScale:
             raise ValueError("need 0 < resize <= 1, sigma > 0 and an odd kernel_size")
 
 
+@dataclass(frozen=True)
+class YnetTraining:
+    """How the short-term Y-net trains where it departs from `ynet.<profile>`
+    (`pipeline.runners.ynet_training.YnetSettings` documents each; null = `ynet.<profile>`'s)."""
+
+    learning_rate: float | None = None
+    batch_size: int | None = None
+    mix_scenes: bool = False
+    """Batches draw windows from every scene (needs the benchmark's `crop`)."""
+    bf16: bool = False
+    """bfloat16 autocast for the training forward passes on the CPU."""
+    lr_schedule: str = "constant"
+    """constant | cosine (to 0 over the run)."""
+
+    def __post_init__(self):
+        if self.learning_rate is not None and self.learning_rate <= 0:
+            raise ValueError(f"learning_rate must be positive or null, got {self.learning_rate}")
+        if self.batch_size is not None and self.batch_size < 1:
+            raise ValueError(f"batch_size must be positive or null, got {self.batch_size}")
+
+    def overrides(self) -> dict:
+        """The `YnetSettings` fields this section sets."""
+        return {key: value for key, value in dataclasses.asdict(self).items() if value is not None}
+
+
 @dataclass
 class ShortTermModelsParams:
     """Section `short_term_models.<profile>` of params.yaml."""
@@ -633,8 +658,8 @@ class ShortTermModelsParams:
     """Model (ynet, sgan, pecnet) -> benchmark (sdd, ethucy: each fold) -> training epochs."""
     ynet_steps_per_epoch: int
     """Y-net optimiser steps per epoch, about (windows drawn afresh each epoch); 0 = every window."""
-    ynet_learning_rate: float | None
-    """Y-net's Adam learning rate here; None = `ynet.<profile>`'s (the long-term model's)."""
+    ynet_training: YnetTraining
+    """How Y-net trains here, where it departs from `ynet.<profile>` (the long-term model's)."""
     val_windows: int
     """Validation windows that select the epoch (a fixed seeded sample); 0 = all of them."""
     ynet_sdd: YnetScale
@@ -669,8 +694,6 @@ class ShortTermModelsParams:
                              f"each of {list(BENCHMARKS)}, got {self.epochs}")
         if self.ynet_steps_per_epoch < 0 or self.val_windows < 0:
             raise ValueError("ynet_steps_per_epoch and val_windows must be >= 0 (0 = all)")
-        if self.ynet_learning_rate is not None and self.ynet_learning_rate <= 0:
-            raise ValueError(f"ynet_learning_rate must be positive or null, got {self.ynet_learning_rate}")
         unknown = sorted(set(self.ynet_datasets) - set(DATASETS))
         if unknown:
             raise ValueError(f"ynet_datasets: unknown dataset(s) {unknown}; known: {list(DATASETS)}")

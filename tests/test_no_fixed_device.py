@@ -37,10 +37,13 @@ def scenes(n: int, resize: float):
     return group_by_scene(arrays, maps, {"gates_0": (240, 272)}, resize), arrays
 
 
-@pytest.fixture(params=[0, 32], ids=["whole scene", "crops"])
+@pytest.fixture(params=[(0, False), (32, False), (32, True)],
+                ids=["whole scene", "crops", "crops of mixed scenes, bf16"])
 def setup(request):
     torch.manual_seed(0)
-    settings = YnetSettings(**SETTINGS, crop=request.param, crop_lead_steps=1.0)
+    crop, mixed = request.param
+    settings = YnetSettings(**SETTINGS, crop=crop, crop_lead_steps=1.0, mix_scenes=mixed, bf16=mixed,
+                            lr_schedule="cosine" if mixed else "constant")
     model = YNet(settings.model_config(N_PAST, N_FUTURE))
     optimizer = torch.optim.Adam(model.parameters(), lr=1e-3)
     train_scenes, _ = scenes(4, settings.resize)

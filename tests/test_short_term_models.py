@@ -23,7 +23,8 @@ import yaml
 from pipeline.report import page as report
 from pipeline.data.homography import metres_to_pixels
 from pipeline.harness.metrics import window_errors
-from pipeline.config import DATASETS, ShortTermModelsParams, load_profile, read_params
+from pipeline.config import (DATASETS, ShortTermModelsParams, YnetTraining, load_profile,
+                             read_params)
 from pipeline.data.semantic_maps import quantise
 from pipeline.data.short_term import MAP_CLASSES, EthUcySceneInfo, load_ethucy_scenes
 from pipeline.harness.baselines.common import subset
@@ -202,15 +203,21 @@ def test_ynet_runs_the_short_term_configuration(project):
     assert run_record(project, "sdd_ynet")["train"]["settings"]["semantic_classes"] == 6
 
 
-def test_ynet_learning_rate_overrides_the_long_term_models_only_when_set():
+def test_ynet_training_overrides_the_long_term_models_only_where_set():
     params = read_params(REPO / "params.yaml")
     short = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "cpu"})
-    base = YnetSettings(learning_rate=3e-4)
-    for rate, expected in ((2e-3, 2e-3), (None, 3e-4)):
-        settings = ynet_settings(base, replace(short, ynet_learning_rate=rate), "eth", N_FUTURE, 3)
-        assert settings.learning_rate == expected and settings.waypoints == [N_FUTURE - 1]
-    with pytest.raises(ValueError, match="ynet_learning_rate"):
-        replace(short, ynet_learning_rate=0.0)
+    base = YnetSettings(learning_rate=3e-4, batch_size=2)
+    for training, rate, batch in ((YnetTraining(learning_rate=2e-3), 2e-3, 2),
+                                  (YnetTraining(batch_size=16, bf16=True), 3e-4, 16)):
+        settings = ynet_settings(base, replace(short, ynet_training=training), "eth", N_FUTURE, 3)
+        assert (settings.learning_rate, settings.batch_size) == (rate, batch)
+        assert settings.bf16 == training.bf16 and settings.waypoints == [N_FUTURE - 1]
+    for bad in ({"learning_rate": 0.0}, {"batch_size": 0}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            YnetTraining(**bad)
+    paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})
+    assert paper.ynet_training.overrides() == {"mix_scenes": False, "bf16": False,
+                                               "lr_schedule": "constant"}  # the authors' recipe
 
 
 def test_smaller_k_is_never_better(project):

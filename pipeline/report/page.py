@@ -862,6 +862,25 @@ def stage_timings(store: MetricsStore) -> dict[str, Any]:
     return {"keys": keys, "rows": rows}
 
 
+def stage_profile(path: Path | None) -> dict[str, Any] | Absent:
+    """Where the pipeline's time goes: the stages `tools/timed_repro.py` clocked (`make repro`),
+    longest first, each with its share of their sum, and the last run's record."""
+    if path is None or not path.exists():
+        return Absent("no stage times yet: `make repro` (tools/timed_repro.py) writes "
+                      f"{'reports/stage_times.json' if path is None else path.as_posix()}")
+    try:
+        record = json.loads(path.read_text())
+        stages = {str(name): float(entry["seconds"]) for name, entry in record["stages"].items()}
+        last_run = dict(record["last_run"])
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
+        return Absent(f"{path.as_posix()} unreadable: {e.__class__.__name__}: {e}", "invalid")
+    total = sum(stages.values())
+    rows = [{"stage": name, "seconds": seconds, "share": seconds / total if total else 0.0,
+             "run_started": record["stages"][name].get("run_started")}
+            for name, seconds in sorted(stages.items(), key=lambda item: -item[1])]
+    return {"rows": rows, "total": total, "last_run": last_run}
+
+
 def lock_params(lock: Mapping[str, Any] | Absent) -> dict[str, Any]:
     """The params.yaml values the stages ran with, as dvc.lock records them (each stage its keys),
     merged into one nested mapping: what the numbers on the page were computed with."""
@@ -940,6 +959,7 @@ class Inputs:
     manifests: Path
     repo: Path = field(default_factory=Path.cwd)
     own_outputs: tuple[str, ...] = ()  # the report's outputs, relative to `repo`
+    stage_times: Path | None = None  # tools/timed_repro.py's record of `make repro`
 
 
 @dataclass(frozen=True)
@@ -997,7 +1017,7 @@ def provenance_section(inputs: Inputs, lock: Mapping[str, Any] | Absent, params:
     return {"git": git_state(inputs.repo, outputs), "params_text": params_text,
             "profiles": profiles(params, store), "manifests": manifest_checksums(inputs.manifests),
             "raw_hashes": raw_data_hashes(lock), "machine": machine(),
-            "timings": stage_timings(store),
+            "timings": stage_timings(store), "stage_profile": stage_profile(inputs.stage_times),
             "metrics_files": sorted(store.where(rel) for rel in store.files)}
 
 

@@ -87,14 +87,12 @@ def table_path(windows: Path, dataset: str) -> Path:
 
 def ynet_settings(base: YnetSettings, params: ShortTermModelsParams, dataset: str, n_future: int,
                   semantic_classes: int) -> YnetSettings:
-    """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale, epochs and
-    (if set) learning rate."""
+    """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale and epochs,
+    and the training departures of `ynet_training`."""
     scale = params.ynet_sdd if dataset == "sdd" else params.ynet_ethucy
-    learning_rate = (base.learning_rate if params.ynet_learning_rate is None
-                     else params.ynet_learning_rate)
     return YnetSettings(**{
-        **asdict(base), **asdict(scale), "waypoints": [n_future - 1],
-        "epochs": params.epochs["ynet"][benchmark_of(dataset)], "learning_rate": learning_rate,
+        **asdict(base), **asdict(scale), **params.ynet_training.overrides(),
+        "waypoints": [n_future - 1], "epochs": params.epochs["ynet"][benchmark_of(dataset)],
         "semantic_classes": semantic_classes, "steps_per_epoch": params.ynet_steps_per_epoch})
 
 

@@ -1,9 +1,10 @@
 """Y-net training: the train split trains, the val split selects the epoch (stages `train_ynet`,
 `train_ynet_horizon`, `train_short_term_ynet`, `train_ind`).
 
-One scene per batch; each epoch visits every train scene under `augmentations` of the 8
-rotation/flip variants (drawn at random per scene and epoch, seeded), its windows in shuffled
-batches. After every epoch: validation ADE/FDE (deterministic: softargmax goal and waypoints, one
+Each epoch visits every train scene under `augmentations` of the 8 rotation/flip variants (drawn
+at random per scene and epoch, seeded), its windows in shuffled batches: one scene per batch, or,
+on equal-sized agent crops, windows of all scenes mixed (`mix_scenes`). The learning rate is
+constant or follows a cosine over the run (`lr_schedule`). After every epoch: validation ADE/FDE (deterministic: softargmax goal and waypoints, one
 path; model selection never sees the test set), a checkpoint (weights, optimiser, RNG states,
 history) written atomically, and the best weights kept. Re-running after an interruption resumes
 from the last checkpoint; on SIGTERM / SIGINT or when `runtime.max_minutes` is spent, the epoch's
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import random
 import time
 from dataclasses import asdict, dataclass, field
@@ -27,8 +29,9 @@ import torch
 from tqdm import tqdm
 
 from pipeline.data.window_table import WindowArrays
-from pipeline.data.ynet_data import (AUGMENTATIONS, SceneWindows, augment, cropped_training_batch,
-                                     group_by_scene, padded_semantic, training_batch, window_inputs)
+from pipeline.data.ynet_data import (AUGMENTATIONS, SceneWindows, TrainingBatch, augment,
+                                     cropped_training_batch, group_by_scene, padded_semantic,
+                                     training_batch, window_inputs)
 from pipeline import checkpoints
 from pipeline.device import CPU, autocast, conv_layout, restore_rng_states, rng_states
 from pipeline.harness.metrics import ade_fde
@@ -39,6 +42,9 @@ from ynet.loss import ynet_loss
 from ynet.model import YNet, YNetConfig
 from ynet.sampling import softargmax
 from ynet.segmentation import PAD_CLASS
+
+
+LR_SCHEDULES = ("constant", "cosine")
 
 
 @dataclass
@@ -88,6 +94,15 @@ class YnetSettings:
     horizons whose futures stay near the agent then cost a fraction of the pixels."""
     crop_lead_steps: float = 0.0
     """The crop is centred this many steps of the agent's last observed velocity ahead of it."""
+    mix_scenes: bool = False
+    """With `crop`: a batch draws its windows from every scene (crops share one size), instead of
+    all from one scene. Larger batches then stay diverse, and no scene leaves a small last batch."""
+    bf16: bool = False
+    """bfloat16 autocast for the training forward passes on the CPU (about 1.7x on CPUs with
+    AVX512-BF16 at batch 16; losses stay float32). CUDA always trains under bfloat16 autocast."""
+    lr_schedule: str = "constant"
+    """'constant', or 'cosine': the learning rate falls from `learning_rate` to 0 along a half
+    cosine over the run's steps (a pure function of the step, so a resumed run follows it too)."""
 
     def __post_init__(self):
         if not 0 < self.resize <= 1:
@@ -102,6 +117,10 @@ class YnetSettings:
             raise ValueError("epochs, batch_size and semantic_classes must be positive")
         if self.steps_per_epoch < 0:
             raise ValueError("steps_per_epoch must be >= 0 (0 = every batch)")
+        if self.mix_scenes and not self.crop:
+            raise ValueError("mix_scenes needs crop > 0 (whole scenes differ in size)")
+        if self.lr_schedule not in LR_SCHEDULES:
+            raise ValueError(f"lr_schedule must be one of {LR_SCHEDULES}, got {self.lr_schedule!r}")
         if self.crop < 0 or self.crop % 32 or (self.crop and self.distance_norm == "map"):
             raise ValueError(f"crop must be 0 or a multiple of 32, with distance_norm 'upstream' "
                              f"(crops need distance maps of a fixed scale), got {self.crop}")
@@ -181,9 +200,16 @@ def validate(model: YNet, scenes: list[SceneWindows], settings: YnetSettings) ->
     return {"val_ade": scores["ade"], "val_fde": scores["fde"]}
 
 
+BatchPart = tuple[int, int, bool, np.ndarray]
+"""(scene index, quarter turns, flip, window rows): windows of one scene under one augmentation."""
+
+
 def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
-               rng: np.random.Generator) -> list[tuple[int, int, bool, np.ndarray]]:
-    """(scene index, turns, flip, window rows) for every batch of one epoch, shuffled."""
+               rng: np.random.Generator) -> list[list[BatchPart]]:
+    """Every batch of one epoch, shuffled: one part per batch (one scene), or with
+    `settings.mix_scenes` the parts of the scenes its windows come from."""
+    if settings.mix_scenes:
+        return mixed_epoch_plan(scenes, settings, rng)
     plan = []
     for s, scene in enumerate(scenes):
         variants = rng.choice(len(AUGMENTATIONS), settings.augmentations, replace=False)
@@ -191,19 +217,84 @@ def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
             turns, flip = AUGMENTATIONS[variant]
             order = rng.permutation(len(scene))
             for start in range(0, len(order), settings.batch_size):
-                plan.append((s, turns, flip, order[start:start + settings.batch_size]))
+                plan.append([(s, turns, flip, order[start:start + settings.batch_size])])
     return [plan[i] for i in rng.permutation(len(plan))]
 
 
+def mixed_epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
+                     rng: np.random.Generator) -> list[list[BatchPart]]:
+    """Each scene's windows under `augmentations` variants, all shuffled together and cut into
+    batches of `batch_size`; a batch is split into parts by (scene, variant), in first-seen order."""
+    items = []  # (scene, variant, row)
+    for s, scene in enumerate(scenes):
+        for variant in rng.choice(len(AUGMENTATIONS), settings.augmentations, replace=False):
+            items.append(np.stack([np.full(len(scene), s), np.full(len(scene), variant),
+                                   np.arange(len(scene))], axis=1))
+    items = np.concatenate(items)[rng.permutation(sum(len(i) for i in items))]  # (N, 3)
+    plan = []
+    for start in range(0, len(items), settings.batch_size):
+        batch = items[start:start + settings.batch_size]
+        keys, first = np.unique(batch[:, :2], axis=0, return_index=True)
+        parts = []
+        for s, variant in keys[np.argsort(first)]:
+            turns, flip = AUGMENTATIONS[variant]
+            rows = batch[(batch[:, 0] == s) & (batch[:, 1] == variant), 2]
+            parts.append((int(s), turns, flip, rows))
+        plan.append(parts)
+    return plan
+
+
+def scheduled_learning_rate(settings: YnetSettings, epoch: int, step: int, steps_in_epoch: int,
+                            epochs: int) -> float:
+    """The learning rate of step `step` (0-based) of epoch `epoch` (1-based) of an `epochs` run."""
+    if settings.lr_schedule == "constant":
+        return settings.learning_rate
+    progress = (epoch - 1 + step / steps_in_epoch) / epochs  # in [0, 1)
+    return settings.learning_rate * 0.5 * (1.0 + math.cos(math.pi * progress))
+
+
+def concat_batches(batches: list[TrainingBatch]) -> TrainingBatch:
+    """Batches of the same map size as one: (sum B, ...) each."""
+    if len(batches) == 1:
+        return batches[0]
+    return TrainingBatch(*(torch.cat(parts) for parts in
+                           zip(*((b.inputs, b.waypoint_maps, b.target) for b in batches))))
+
+
+def plan_batch(parts: list[BatchPart], scenes: list[SceneWindows], settings: YnetSettings,
+               augmented: dict[tuple[int, int, bool], tuple[SceneWindows, torch.Tensor]]
+               ) -> TrainingBatch:
+    """The training batch of one plan entry: its parts' windows, in order. `augmented` caches each
+    (scene, turns, flip)'s augmented scene and padded map across the steps of an epoch."""
+    batches = []
+    for s, turns, flip, rows in parts:
+        key = (s, turns, flip)
+        if key not in augmented:  # the scene's map is prepared once per augmentation
+            scene = augment(scenes[s], turns, flip)
+            augmented[key] = (scene, padded_semantic(scene.semantic, PAD_CLASS))
+        scene, semantic = augmented[key]
+        if settings.crop:
+            batches.append(cropped_training_batch(
+                scene.semantic, scene.past[rows], scene.future[rows], tuple(settings.waypoints),
+                settings.max_distance, settings.kernel_size, settings.sigma, settings.crop,
+                settings.crop_lead_steps, PAD_CLASS))
+        else:
+            batches.append(training_batch(semantic, scene.past[rows], scene.future[rows],
+                                          tuple(settings.waypoints), settings.max_distance,
+                                          settings.kernel_size, settings.sigma))
+    return concat_batches(batches)
+
+
 def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: YnetSettings,
-                plan: list[tuple[int, int, bool, np.ndarray]], epoch: int, losses: list[float],
+                plan: list[list[BatchPart]], epoch: int, losses: list[float],
                 device: torch.device = CPU, preemption: Preemption = NEVER,
-                save_partial=None) -> float:
+                save_partial=None, epochs: int | None = None) -> float:
     """One epoch's optimiser steps, from step `len(losses)` of `plan` on; returns the mean loss.
 
     `losses` holds the steps already taken (a resumed epoch) and grows in place. Before each step
     the loop asks `preemption`; if it says stop, `save_partial(losses)` checkpoints the epoch so
-    far and `StopRequested` is raised.
+    far and `StopRequested` is raised. `epochs`: the run's length, for the learning-rate schedule
+    (default `settings.epochs`).
     """
     model.train()
     if settings.steps_per_epoch:
@@ -214,25 +305,14 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
         if preemption.stop_reason():
             save_partial(losses)
             raise preemption.request(f"epoch {epoch}, step {step} of {len(plan)}")
-        s, turns, flip, rows = plan[step]
-        key = (s, turns, flip)
-        if key not in augmented:  # the scene's map is prepared once per augmentation
-            scene = augment(scenes[s], turns, flip)
-            augmented[key] = (scene, padded_semantic(scene.semantic, PAD_CLASS))
-        scene, semantic = augmented[key]
-        if settings.crop:
-            batch = cropped_training_batch(
-                scene.semantic, scene.past[rows], scene.future[rows], tuple(settings.waypoints),
-                settings.max_distance, settings.kernel_size, settings.sigma, settings.crop,
-                settings.crop_lead_steps, PAD_CLASS)
-        else:
-            batch = training_batch(semantic, scene.past[rows], scene.future[rows],
-                                   tuple(settings.waypoints), settings.max_distance,
-                                   settings.kernel_size, settings.sigma)
+        batch = plan_batch(plan[step], scenes, settings, augmented)
         inputs = batch.inputs
-        if device.type == "cuda":
+        if device.type == "cuda" or settings.bf16:
             inputs = inputs.contiguous(memory_format=torch.channels_last)
-        with autocast(device):
+        for group in optimizer.param_groups:
+            group["lr"] = scheduled_learning_rate(settings, epoch, step, len(plan),
+                                                  epochs or settings.epochs)
+        with autocast(device, settings.bf16):
             goal_logits, trajectory_logits = model(inputs, batch.waypoint_maps)
         loss = ynet_loss(goal_logits.float(), trajectory_logits.float(), batch.target,
                          settings.loss_scale).total
@@ -247,7 +327,8 @@ RESUMABLE_SETTINGS = ("epochs", "threads")  # may change between an interrupted 
 # Settings added after checkpoints existed: left out of the fingerprint at their defaults, so those
 # checkpoints still resume.
 ADDED_SETTINGS = {"semantic_classes": 6, "steps_per_epoch": 0, "head_bias": None,
-                  "distance_gain": 1.0, "crop": 0, "crop_lead_steps": 0.0}
+                  "distance_gain": 1.0, "crop": 0, "crop_lead_steps": 0.0, "mix_scenes": False,
+                  "bf16": False, "lr_schedule": "constant"}
 
 
 def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str, np.ndarray],
@@ -320,7 +401,8 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
         plan_state = rng.bit_generator.state  # regenerates this epoch's plan on resumption
         plan = epoch_plan(train_scenes, settings, rng)
         loss = train_epoch(model, optimizer, train_scenes, settings, plan, epoch, partial_losses,
-                           device, preemption, lambda losses: save_checkpoint(plan_state, losses))
+                           device, preemption, lambda losses: save_checkpoint(plan_state, losses),
+                           epochs or settings.epochs)
         partial_losses = []
         scores = validate(model, val_scenes, settings)
         state["seconds"] += time.perf_counter() - start

@@ -33,6 +33,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--qualitative", type=Path, default=Path("data/ynet_predictions/qualitative.npz"))
     parser.add_argument("--manifests", type=Path, default=Path("manifests"))
     parser.add_argument("--dvc-lock", type=Path, default=Path("dvc.lock"))
+    parser.add_argument("--stage-times", type=Path, default=Path("reports/stage_times.json"),
+                        help="tools/timed_repro.py's stage times (shown when present)")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"),
                         help="read for its `report` section only")
     parser.add_argument("--out", type=Path, required=True, help="the HTML page written")
@@ -43,9 +45,11 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     report_params = load_section(ReportParams, "report", read_params(args.params))
     own_outputs = tuple(Path(os.path.relpath(path.resolve(), Path.cwd())).as_posix()
-                        for path in (args.out, args.figures, args.plots, args.headline))
+                        for path in (args.out, args.figures, args.plots, args.headline,
+                                     args.stage_times))  # the stage times: make repro writes them
     inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.segmentation_figures,
-                    args.qualitative, args.manifests, own_outputs=own_outputs)
+                    args.qualitative, args.manifests, own_outputs=own_outputs,
+                    stage_times=args.stage_times)
     write_report(inputs, read_lock(args.dvc_lock), report_params, args.out, args.figures,
                  args.plots, args.headline)
 

@@ -1,0 +1,79 @@
+"""tools/timed_repro.py (the stage clock of `make repro`) and the report's "Where the time goes"."""
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+
+import timed_repro  # noqa: E402
+from pipeline.report.lookups import Absent  # noqa: E402
+from pipeline.report.page import stage_profile  # noqa: E402
+
+DVC_OUTPUT = [  # (seconds, line) as `dvc repro` prints them
+    (0.0, "Stage 'fetch' didn't change, skipping\n"),
+    (1.0, "Running stage 'tracks':\n"),
+    (1.1, "> python -m pipeline.stages.tracks ...\n"),
+    (30.0, "tracks: 23 videos\n"),
+    (31.5, "Updating lock file 'dvc.lock'\n"),
+    (32.0, "Running stage 'windows@30':\n"),
+    (92.0, "Updating lock file 'dvc.lock'\n"),
+    (93.0, "Running stage 'train_ynet':\n"),
+    (99.0, "ERROR: failed to reproduce 'train_ynet': exited with 1\n"),
+]
+
+
+def test_each_stage_that_ran_is_clocked_from_its_start_to_its_lock_update():
+    assert timed_repro.stage_seconds(DVC_OUTPUT) == {"tracks": 30.5, "windows@30": 60.0}
+
+
+def test_a_run_updates_the_stages_it_ran_and_keeps_the_others():
+    previous = {"stages": {"tracks": {"seconds": 10.0, "run_started": "earlier"},
+                           "fetch": {"seconds": 4.0, "run_started": "earlier"}}}
+    run = {"started": "now", "seconds": 99.0}
+    merged = timed_repro.merged_times(previous, {"tracks": 30.5, "windows@30": 60.0}, run)
+    assert merged["stages"] == {"fetch": {"seconds": 4.0, "run_started": "earlier"},
+                                "tracks": {"seconds": 30.5, "run_started": "now"},
+                                "windows@30": {"seconds": 60.0, "run_started": "now"}}
+    assert merged["last_run"] == run and list(merged["stages"]) == sorted(merged["stages"])
+
+
+def test_main_writes_the_times_and_renders_the_report_again(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    calls = []
+
+    def fake_dvc(args):
+        calls.append(args)
+        return 0, DVC_OUTPUT[:7] if args == ["repro"] else []
+
+    monkeypatch.setattr(timed_repro, "run_dvc", fake_dvc)
+    assert timed_repro.main([]) == 0
+    record = json.loads((tmp_path / timed_repro.STAGE_TIMES).read_text())
+    assert set(record["stages"]) == {"tracks", "windows@30"}
+    assert record["last_run"]["stages_run"] == ["tracks", "windows@30"]
+    assert calls == [["repro"], ["repro", "report"]]
+    calls.clear()
+    monkeypatch.setattr(timed_repro, "run_dvc", lambda args: (0, DVC_OUTPUT[:1]))  # nothing ran
+    assert timed_repro.main([]) == 0
+    assert json.loads((tmp_path / timed_repro.STAGE_TIMES).read_text()) == record
+
+
+def test_the_report_lists_stages_longest_first_with_their_share(tmp_path):
+    path = tmp_path / "stage_times.json"
+    path.write_text(json.dumps(timed_repro.merged_times(
+        {}, {"tracks": 30.0, "windows@30": 90.0}, {"started": "now", "seconds": 125.0})))
+    profile = stage_profile(path)
+    assert [(r["stage"], r["share"]) for r in profile["rows"]] == [("windows@30", 0.75), ("tracks", 0.25)]
+    assert profile["total"] == 120.0 and profile["last_run"]["seconds"] == 125.0
+
+
+@pytest.mark.parametrize("content, kind", [(None, "missing"), ("{not json", "invalid"),
+                                           ('{"stages": {"a": {}}, "last_run": {}}', "invalid")])
+def test_the_report_says_why_there_are_no_stage_times(tmp_path, content, kind):
+    path = tmp_path / "stage_times.json"
+    if content is not None:
+        path.write_text(content)
+    absent = stage_profile(path)
+    assert isinstance(absent, Absent) and absent.kind == kind and "stage_times.json" in absent.reason

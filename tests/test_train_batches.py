@@ -1,0 +1,143 @@
+"""How Y-net training batches are drawn and stepped: windows of several scenes mixed in one batch of
+agent crops, the cosine learning-rate schedule, and bfloat16 autocast on the CPU."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import group_by_scene
+from pipeline.preemption import NEVER, Preemption, StopRequested
+from pipeline.runners import ynet_training
+from pipeline.runners.ynet_training import (YnetSettings, epoch_plan, plan_batch,
+                                            scheduled_learning_rate, train, train_epoch)
+from ynet.loss import ynet_loss
+from ynet.model import YNet
+
+N_PAST, N_FUTURE = 3, 4
+SETTINGS = dict(resize=0.25, epochs=2, batch_size=4, learning_rate=1e-3, augmentations=2,
+                kernel_size=7, sigma=1.5, waypoints=[1, 3], encoder_channels=[4, 4, 8, 8, 8],
+                decoder_channels=[8, 8, 8, 4, 4], seed=3, threads=1, head_bias=-5.0, crop=32,
+                crop_lead_steps=1.0)
+MAPS = {"gates_0": np.full((6, 64, 64), 1 / 6, np.float32),
+        "hyang_1": np.tile(np.eye(6, dtype=np.float32)[:, :, None, None], (1, 1, 48, 80))[0]}
+SIZES = {"gates_0": (256, 256), "hyang_1": (192, 320)}
+
+
+def arrays(counts: dict[str, int], split: str, seed: int) -> WindowArrays:
+    """Agents walking right at 8 px/step, `counts[scene]` of them in each scene."""
+    rng = np.random.default_rng(seed)
+    n = sum(counts.values())
+    xy = rng.uniform(40, 150, size=(n, 1, 2)) + np.arange(N_PAST + N_FUTURE)[None, :, None] * [8.0, 0.0]
+    return WindowArrays(past=xy[:, :N_PAST], future=xy[:, N_PAST:], window_id=np.arange(n),
+                        scene_id=np.repeat(list(counts), list(counts.values())),
+                        track_id=np.arange(n), first_frame=np.zeros(n), split=np.array([split] * n))
+
+
+def scenes(counts=None):
+    return group_by_scene(arrays(counts or {"gates_0": 5, "hyang_1": 7}, "train", 0), MAPS, SIZES, 0.25)
+
+
+def test_a_mixed_plan_visits_every_window_once_per_augmentation_in_full_batches():
+    train_scenes = scenes()
+    settings = YnetSettings(**SETTINGS, mix_scenes=True)
+    plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))
+    seen = {}
+    for batch in plan:
+        assert len({(s, turns, flip) for s, turns, flip, _ in batch}) == len(batch)  # a part per key
+        for s, turns, flip, rows in batch:
+            for row in rows:
+                seen.setdefault((s, int(row)), []).append((turns, flip))
+    assert sorted(seen) == [(0, r) for r in range(5)] + [(1, r) for r in range(7)]
+    assert all(len(set(variants)) == len(variants) == 2 for variants in seen.values())
+    sizes = [sum(len(rows) for *_, rows in batch) for batch in plan]
+    assert sizes == [4] * 6  # 24 windows x augmentations in full batches: no small per-scene tails
+    assert any(len({s for s, *_ in batch}) == 2 for batch in plan)  # scenes do mix
+    one_scene = epoch_plan(train_scenes, YnetSettings(**SETTINGS), np.random.default_rng(0))
+    assert all(len(batch) == 1 for batch in one_scene)
+    assert sorted(sum(len(b[0][3]) for b in one_scene if b[0][0] == s) for s in (0, 1)) == [10, 14]
+
+
+def test_a_mixed_batch_has_the_loss_of_its_parts_one_scene_at_a_time():
+    torch.manual_seed(0)
+    train_scenes = scenes()
+    settings = YnetSettings(**SETTINGS, mix_scenes=True)
+    model = YNet(settings.model_config(N_PAST, N_FUTURE))
+    plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))
+    batch_parts = next(b for b in plan if len({s for s, *_ in b}) == 2)
+
+    def loss(parts):
+        batch = plan_batch(parts, train_scenes, settings, {})
+        return ynet_loss(*model(batch.inputs, batch.waypoint_maps), batch.target).total, len(batch.target)
+
+    mixed, n = loss(batch_parts)
+    alone = [loss([part]) for part in batch_parts]
+    assert n == sum(size for _, size in alone) == 4
+    torch.testing.assert_close(mixed, sum(value * size for value, size in alone) / n)
+
+
+def test_the_cosine_schedule_falls_from_the_rate_to_zero_and_the_constant_one_stays():
+    cosine = YnetSettings(**SETTINGS, lr_schedule="cosine")
+    rates = [scheduled_learning_rate(cosine, epoch, step, 4, 2) for epoch in (1, 2) for step in range(4)]
+    assert rates[0] == pytest.approx(1e-3) and rates[4] == pytest.approx(0.5e-3)
+    assert all(a > b for a, b in zip(rates, rates[1:])) and rates[-1] == pytest.approx(
+        0.5e-3 * (1 + math.cos(math.pi * 7 / 8)))
+    constant = YnetSettings(**SETTINGS)
+    assert {scheduled_learning_rate(constant, 2, 3, 4, 2)} == {1e-3}
+
+    torch.manual_seed(0)
+    model = YNet(cosine.model_config(N_PAST, N_FUTURE))
+    optimizer = torch.optim.Adam(model.parameters(), lr=1.0)
+    train_scenes = scenes()
+    plan = epoch_plan(train_scenes, cosine, np.random.default_rng(0))
+    train_epoch(model, optimizer, train_scenes, cosine, plan, 2, [], epochs=2)
+    assert optimizer.param_groups[0]["lr"] == pytest.approx(
+        scheduled_learning_rate(cosine, 2, len(plan) - 1, len(plan), 2))  # the last step's rate
+
+
+def test_bf16_autocast_trains_on_the_cpu_close_to_float32():
+    train_scenes = scenes()
+    losses = {}
+    for bf16 in (False, True):
+        torch.manual_seed(0)
+        settings = YnetSettings(**SETTINGS, bf16=bf16)
+        model = YNet(settings.model_config(N_PAST, N_FUTURE))
+        optimizer = torch.optim.Adam(model.parameters(), lr=1e-3)
+        plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))[:1]
+        losses[bf16] = train_epoch(model, optimizer, train_scenes, settings, plan, 1, [])
+    assert losses[True] != losses[False]  # autocast ran
+    assert losses[True] == pytest.approx(losses[False], rel=0.02)
+
+
+@pytest.mark.parametrize("bad, match", [({"mix_scenes": True, "crop": 0}, "mix_scenes"),
+                                        ({"lr_schedule": "linear"}, "lr_schedule")])
+def test_settings_that_cannot_work_are_refused(bad, match):
+    with pytest.raises(ValueError, match=match):
+        YnetSettings(**{**SETTINGS, **bad})
+
+
+def test_a_resumed_mixed_cosine_bf16_run_ends_with_the_uninterrupted_weights(tmp_path, monkeypatch):
+    """Stopped in the middle of epoch 2 (a spent time budget) and resumed: the schedule and the
+    mixed plan pick up at that step."""
+    torch.set_num_threads(1)
+    settings = YnetSettings(**SETTINGS, mix_scenes=True, lr_schedule="cosine", bf16=True)
+    val = arrays({"gates_0": 2, "hyang_1": 2}, "val", 1)
+
+    def run(folder, preemption=NEVER):
+        train(arrays({"gates_0": 5, "hyang_1": 7}, "train", 0), val, MAPS, SIZES, settings, N_PAST,
+              folder / "last.pt", folder / "best.pt", folder / "history.csv", preemption=preemption)
+        return torch.load(folder / "last.pt", weights_only=True)["state"]["model"]
+
+    straight = run(tmp_path / "a")
+    steps = []
+    real_loss = ynet_training.ynet_loss
+    monkeypatch.setattr(ynet_training, "ynet_loss", lambda *a, **k: steps.append(1) or real_loss(*a, **k))
+    budget = Preemption(max_minutes=1, clock=lambda: 120.0 * (len(steps) >= 6 + 2))  # 6 steps an epoch
+    with budget, pytest.raises(StopRequested):
+        run(tmp_path / "b", budget)
+    monkeypatch.undo()
+    resumed = run(tmp_path / "b")
+    for name in straight:
+        torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)

@@ -1,0 +1,94 @@
+"""`dvc repro` with a clock: where the pipeline's time goes, stage by stage, for the report.
+
+`make repro` runs this instead of a bare `dvc repro`. It passes its arguments to `dvc repro`,
+echoes dvc's output as it comes, and stamps each line with the time it arrived: a stage's wall time
+runs from dvc's "Running stage '<name>':" to its "Updating lock file" (the command plus dvc's
+hashing of the outputs). The times go to `reports/stage_times.json`, merged with those already
+there (a stage that did not run keeps the time of its last run), with a record of this run: when,
+how long in all, which stages ran, on how many cores. If any stage ran, the report is rendered once
+more, so its provenance section shows this run's times (the report stage reads the file).
+
+    python tools/timed_repro.py [dvc repro arguments...]
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from collections.abc import Iterable
+from pathlib import Path
+
+STAGE_TIMES = Path("reports/stage_times.json")
+RUNNING = re.compile(r"^Running stage '(?P<stage>[^']+)':")
+DONE = "Updating lock file"
+
+
+def stage_seconds(stamped_lines: Iterable[tuple[float, str]]) -> dict[str, float]:
+    """Wall seconds of each stage that ran to the end, from dvc repro's output lines stamped with
+    the (monotonic) time each arrived. A stage that failed (no lock update) has no entry."""
+    seconds, current = {}, None
+    for stamp, line in stamped_lines:
+        started = RUNNING.match(line)
+        if started:
+            current = (started["stage"], stamp)
+        elif current is not None and line.startswith(DONE):
+            seconds[current[0]] = stamp - current[1]
+            current = None
+    return seconds
+
+
+def merged_times(previous: dict, ran: dict[str, float], run: dict) -> dict:
+    """`previous` (the file's content, or {}) updated with this run: each stage that ran gets its
+    new time and the run's start; the others keep theirs."""
+    stages = dict(previous.get("stages") or {})
+    for name, seconds in ran.items():
+        stages[name] = {"seconds": round(seconds, 1), "run_started": run["started"]}
+    return {"stages": dict(sorted(stages.items())), "last_run": run}
+
+
+def write_json_atomically(record: dict, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    temporary.write_text(json.dumps(record, indent=2) + "\n")
+    temporary.replace(path)
+
+
+def run_dvc(args: list[str]) -> tuple[int, list[tuple[float, str]]]:
+    """`dvc <args>`, its output echoed and stamped line by line; (exit code, stamped lines)."""
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}  # dvc's own lines must arrive when printed
+    stamped = []
+    with subprocess.Popen(["dvc", *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                          text=True, bufsize=1, env=env) as process:
+        for line in process.stdout:
+            stamped.append((time.monotonic(), line))
+            sys.stdout.write(line)
+            sys.stdout.flush()
+    return process.returncode, stamped
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    started = dt.datetime.now(dt.UTC)
+    clock = time.monotonic()
+    code, stamped = run_dvc(["repro", *args])
+    ran = stage_seconds(stamped)
+    if not ran:
+        return code
+    run = {"started": started.strftime("%Y-%m-%d %H:%M:%S UTC"),
+           "seconds": round(time.monotonic() - clock, 1), "command": " ".join(["dvc", "repro", *args]),
+           "exit_code": code, "stages_run": sorted(ran), "cpu_count": os.cpu_count()}
+    previous = json.loads(STAGE_TIMES.read_text()) if STAGE_TIMES.exists() else {}
+    write_json_atomically(merged_times(previous, ran, run), STAGE_TIMES)
+    print(f"timed_repro: {len(ran)} stages in {run['seconds']:.0f} s; times in {STAGE_TIMES}")
+    if code == 0:  # the page shows the times of the run that just ended
+        code, _ = run_dvc(["repro", "report"])
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
