@@ -46,6 +46,7 @@ def test_main_writes_the_times_and_renders_the_report_again(tmp_path, monkeypatc
 
     def fake_dvc(args):
         calls.append(args)
+        assert (tmp_path / timed_repro.STAGE_TIMES).exists()  # in place before the report runs
         return 0, DVC_OUTPUT[:7] if args == ["repro"] else []
 
     monkeypatch.setattr(timed_repro, "run_dvc", fake_dvc)
@@ -70,6 +71,7 @@ def test_the_report_lists_stages_longest_first_with_their_share(tmp_path):
 
 
 @pytest.mark.parametrize("content, kind", [(None, "missing"), ("{not json", "invalid"),
+                                           ('{"stages": {}, "last_run": null}', "missing"),
                                            ('{"stages": {"a": {}}, "last_run": {}}', "invalid")])
 def test_the_report_says_why_there_are_no_stage_times(tmp_path, content, kind):
     path = tmp_path / "stage_times.json"

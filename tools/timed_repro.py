@@ -75,6 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     started = dt.datetime.now(dt.UTC)
     clock = time.monotonic()
+    if not STAGE_TIMES.exists():  # the report stage reads it: a first run needs it in place
+        write_json_atomically({"stages": {}, "last_run": None}, STAGE_TIMES)
     code, stamped = run_dvc(["repro", *args])
     ran = stage_seconds(stamped)
     if not ran:

@@ -871,6 +871,8 @@ def stage_profile(path: Path | None) -> dict[str, Any] | Absent:
     try:
         record = json.loads(path.read_text())
         stages = {str(name): float(entry["seconds"]) for name, entry in record["stages"].items()}
+        if not stages:
+            return Absent(f"{path.as_posix()}: no stage clocked yet (`make repro` fills it)")
         last_run = dict(record["last_run"])
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
         return Absent(f"{path.as_posix()} unreadable: {e.__class__.__name__}: {e}", "invalid")

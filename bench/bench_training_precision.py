@@ -1,0 +1,100 @@
+"""Training samples per second of Y-net on this CPU: float32 against bfloat16 autocast, and for the
+short-term crops one scene per batch against mixed-scene batches, in one run.
+
+Not a test: prints numbers. Runs the pipeline's own training step (`ynet_training.train_epoch`) on
+synthetic windows (no data needed), with each profile's settings from params.yaml:
+
+- long-term `ynet.cpu` (whole scenes at its resize, batch 2): float32 vs `bf16`, the change behind
+  `ynet.cpu.bf16`;
+- short-term SDD (`short_term_models.cpu`: 64 x 64 agent crops at resize 0.125): batch 2 float32
+  (what the profile trains) vs batch 16 of mixed scenes in bfloat16 (the trial the README reports).
+
+    python bench/bench_training_precision.py [--steps 12] [--threads 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench.bench_profiles import IMAGE_HW  # noqa: E402
+from bench.bench_ynet import keep_freed_memory  # noqa: E402
+from pipeline.config import ShortTermModelsParams, load_profile, read_params  # noqa: E402
+from pipeline.data.window_table import WindowArrays  # noqa: E402
+from pipeline.data.ynet_data import group_by_scene  # noqa: E402
+from pipeline.runners.short_term import ynet_settings  # noqa: E402
+from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch  # noqa: E402
+from ynet.model import YNet  # noqa: E402
+
+N_PAST, N_FUTURE = 5, 30
+
+
+def synthetic_windows(n: int, n_past: int, n_future: int, seed: int = 0):
+    """`n` straight walks split over two scenes with random 6-class maps (original pixels)."""
+    rng = np.random.default_rng(seed)
+    height, width = IMAGE_HW
+    start = rng.uniform([200, 200], [width - 800, height - 800], size=(n, 1, 2))
+    xy = start + np.arange(n_past + n_future)[None, :, None] * rng.uniform(-12, 18, size=(n, 1, 2))
+    scene_id = np.where(np.arange(n) < n // 2, "bench_0", "bench_1")
+    arrays = WindowArrays(past=xy[:, :n_past], future=xy[:, n_past:], window_id=np.arange(n),
+                          scene_id=scene_id, track_id=np.arange(n), first_frame=np.zeros(n),
+                          split=np.array(["train"] * n))
+    maps = {name: rng.dirichlet(np.ones(6), size=(height // 4, width // 4)).astype(np.float32)
+            .transpose(2, 0, 1) for name in ("bench_0", "bench_1")}
+    return arrays, maps, {name: IMAGE_HW for name in maps}
+
+
+def samples_per_second(settings: YnetSettings, steps: int, n_past: int, n_future: int) -> float:
+    """Training samples per second over `steps` optimiser steps after one warm-up step."""
+    settings = dataclasses.replace(settings, steps_per_epoch=0)
+    arrays, maps, sizes = synthetic_windows(settings.batch_size * (steps + 1), n_past, n_future)
+    scenes = group_by_scene(arrays, maps, sizes, settings.resize)
+    torch.manual_seed(settings.seed)
+    model = YNet(settings.model_config(n_past, n_future))
+    optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
+    plan = epoch_plan(scenes, settings, np.random.default_rng(0))
+    train_epoch(model, optimizer, scenes, settings, plan[:1], 1, [])  # warm-up: allocator, kernels
+    start = time.perf_counter()
+    train_epoch(model, optimizer, scenes, settings, plan[1:steps + 1], 1, [])
+    taken = sum(sum(len(rows) for *_, rows in batch) for batch in plan[1:steps + 1])
+    return taken / (time.perf_counter() - start)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=12)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    keep_freed_memory()
+    torch.set_num_threads(args.threads)
+    torch.set_flush_denormal(True)
+    params = read_params()
+    cpu = {**params, "profile": "cpu"}
+    long_term = load_profile(YnetSettings, "ynet", cpu)
+    short_term = ynet_settings(long_term, load_profile(ShortTermModelsParams, "short_term_models", cpu),
+                               "sdd", 12, 6)
+    cases = {
+        "long-term, batch 2, float32": dataclasses.replace(long_term, bf16=False),
+        "long-term, batch 2, bf16 (ynet.cpu)": dataclasses.replace(long_term, bf16=True),
+        "short-term SDD crops, batch 2, float32 (cpu)": short_term,
+        "short-term SDD crops, batch 16 mixed, bf16": dataclasses.replace(
+            short_term, batch_size=16, mix_scenes=True, bf16=True),
+    }
+    print(f"torch {torch.__version__}, {args.threads} threads, {args.steps} steps per case")
+    for name, settings in cases.items():
+        n_future = 12 if name.startswith("short") else N_FUTURE
+        n_past = 8 if name.startswith("short") else N_PAST
+        rate = samples_per_second(settings, args.steps, n_past, n_future)
+        print(f"  {name:46s} {rate:6.1f} samples/s")
+
+
+if __name__ == "__main__":
+    main()
