@@ -34,7 +34,6 @@ from pipeline.runners.short_term import ynet_settings  # noqa: E402
 from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch  # noqa: E402
 from ynet.model import YNet  # noqa: E402
 
-N_PAST, N_FUTURE = 5, 30
 
 
 def synthetic_windows(n: int, n_past: int, n_future: int, seed: int = 0):
@@ -81,17 +80,15 @@ def main() -> None:
     long_term = load_profile(YnetSettings, "ynet", cpu)
     short_term = ynet_settings(long_term, load_profile(ShortTermModelsParams, "short_term_models", cpu),
                                "sdd", 12, 6)
-    cases = {
-        "long-term, batch 2, float32": dataclasses.replace(long_term, bf16=False),
-        "long-term, batch 2, bf16 (ynet.cpu)": dataclasses.replace(long_term, bf16=True),
-        "short-term SDD crops, batch 2, float32 (cpu)": short_term,
-        "short-term SDD crops, batch 16 mixed, bf16": dataclasses.replace(
-            short_term, batch_size=16, mix_scenes=True, bf16=True),
+    cases = {  # name: (settings, n_past, n_future)
+        "long-term, batch 2, float32": (dataclasses.replace(long_term, bf16=False), 5, 30),
+        "long-term, batch 2, bf16 (ynet.cpu)": (dataclasses.replace(long_term, bf16=True), 5, 30),
+        "short-term SDD crops, batch 2, float32 (cpu)": (short_term, 8, 12),
+        "short-term SDD crops, batch 16 mixed, bf16": (dataclasses.replace(
+            short_term, batch_size=16, mix_scenes=True, bf16=True), 8, 12),
     }
     print(f"torch {torch.__version__}, {args.threads} threads, {args.steps} steps per case")
-    for name, settings in cases.items():
-        n_future = 12 if name.startswith("short") else N_FUTURE
-        n_past = 8 if name.startswith("short") else N_PAST
+    for name, (settings, n_past, n_future) in cases.items():
         rate = samples_per_second(settings, args.steps, n_past, n_future)
         print(f"  {name:46s} {rate:6.1f} samples/s")
 

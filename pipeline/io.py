@@ -257,7 +257,8 @@ def check_array(array: np.ndarray, dtype: Any, shape: tuple[int | None, ...], pa
     if array.ndim != len(shape) or any(s is not None and a != s for a, s in zip(array.shape, shape)):
         expected = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
         raise IntermediateError(f"{path}: {name}: shape {array.shape}, expected {expected}")
-    if array.dtype.kind == "f" and not np.isfinite(array).all():
-        bad = int(array.size - np.isfinite(array).sum())
-        raise IntermediateError(f"{path}: {name}: {bad} non-finite value(s)")
+    if array.dtype.kind == "f":
+        bad = int(array.size - np.count_nonzero(np.isfinite(array)))
+        if bad:
+            raise IntermediateError(f"{path}: {name}: {bad} non-finite value(s)")
     return array

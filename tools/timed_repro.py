@@ -23,6 +23,10 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from pipeline.io import write_json  # noqa: E402  (atomic: temp file, then rename)
+
 STAGE_TIMES = Path("reports/stage_times.json")
 RUNNING = re.compile(r"^Running stage '(?P<stage>[^']+)':")
 DONE = "Updating lock file"
@@ -51,13 +55,6 @@ def merged_times(previous: dict, ran: dict[str, float], run: dict) -> dict:
     return {"stages": dict(sorted(stages.items())), "last_run": run}
 
 
-def write_json_atomically(record: dict, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    temporary.write_text(json.dumps(record, indent=2) + "\n")
-    temporary.replace(path)
-
-
 def run_dvc(args: list[str]) -> tuple[int, list[tuple[float, str]]]:
     """`dvc <args>`, its output echoed and stamped line by line; (exit code, stamped lines)."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}  # dvc's own lines must arrive when printed
@@ -76,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     started = dt.datetime.now(dt.UTC)
     clock = time.monotonic()
     if not STAGE_TIMES.exists():  # the report stage reads it: a first run needs it in place
-        write_json_atomically({"stages": {}, "last_run": None}, STAGE_TIMES)
+        write_json({"stages": {}, "last_run": None}, STAGE_TIMES)
     code, stamped = run_dvc(["repro", *args])
     ran = stage_seconds(stamped)
     if not ran:
@@ -85,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
            "seconds": round(time.monotonic() - clock, 1), "command": " ".join(["dvc", "repro", *args]),
            "exit_code": code, "stages_run": sorted(ran), "cpu_count": os.cpu_count()}
     previous = json.loads(STAGE_TIMES.read_text()) if STAGE_TIMES.exists() else {}
-    write_json_atomically(merged_times(previous, ran, run), STAGE_TIMES)
+    write_json(merged_times(previous, ran, run), STAGE_TIMES)
     print(f"timed_repro: {len(ran)} stages in {run['seconds']:.0f} s; times in {STAGE_TIMES}")
     if code == 0:  # the page shows the times of the run that just ended
         code, _ = run_dvc(["repro", "report"])

@@ -1,15 +1,16 @@
 """Y-net training: the train split trains, the val split selects the epoch (stages `train_ynet`,
 `train_ynet_horizon`, `train_short_term_ynet`, `train_ind`).
 
-Each epoch visits every train scene under `augmentations` of the 8 rotation/flip variants (drawn
-at random per scene and epoch, seeded), its windows in shuffled batches: one scene per batch, or,
-on equal-sized agent crops, windows of all scenes mixed (`mix_scenes`). The learning rate is
-constant or follows a cosine over the run (`lr_schedule`). After every epoch: validation ADE/FDE (deterministic: softargmax goal and waypoints, one
-path; model selection never sees the test set), a checkpoint (weights, optimiser, RNG states,
-history) written atomically, and the best weights kept. Re-running after an interruption resumes
-from the last checkpoint; on SIGTERM / SIGINT or when `runtime.max_minutes` is spent, the epoch's
-progress is checkpointed too (`pipeline.preemption`), so the run resumes at the very step it
-stopped at and ends with the weights of an uninterrupted run. Runs on `runtime.device`.
+Each epoch visits every train scene under `augmentations` of the 8 rotation/flip variants (drawn at
+random per scene and epoch, seeded), its windows in shuffled batches: one scene per batch, or, on
+equal-sized agent crops, windows of all scenes mixed (`mix_scenes`). The learning rate is constant
+or follows a cosine over the run (`lr_schedule`). After every epoch: validation ADE/FDE
+(deterministic: softargmax goal and waypoints, one path; model selection never sees the test set),
+a checkpoint (weights, optimiser, RNG states, history) written atomically, and the best weights
+kept. Re-running after an interruption resumes from the last checkpoint; on SIGTERM / SIGINT or
+when `runtime.max_minutes` is spent, the epoch's progress is checkpointed too
+(`pipeline.preemption`), so the run resumes at the very step it stopped at and ends with the
+weights of an uninterrupted run. Runs on `runtime.device`.
 """
 
 from __future__ import annotations
@@ -299,6 +300,7 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
     model.train()
     if settings.steps_per_epoch:
         plan = plan[:settings.steps_per_epoch]  # shuffled: a random subset of the batches
+    epochs = epochs or settings.epochs
     augmented: dict[tuple[int, int, bool], tuple[SceneWindows, torch.Tensor]] = {}
     for step in tqdm(range(len(losses), len(plan)), desc=f"epoch {epoch}", leave=False,
                      disable=None, initial=len(losses), total=len(plan)):
@@ -310,8 +312,7 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
         if device.type == "cuda" or settings.bf16:
             inputs = inputs.contiguous(memory_format=torch.channels_last)
         for group in optimizer.param_groups:
-            group["lr"] = scheduled_learning_rate(settings, epoch, step, len(plan),
-                                                  epochs or settings.epochs)
+            group["lr"] = scheduled_learning_rate(settings, epoch, step, len(plan), epochs)
         with autocast(device, settings.bf16):
             goal_logits, trajectory_logits = model(inputs, batch.waypoint_maps)
         loss = ynet_loss(goal_logits.float(), trajectory_logits.float(), batch.target,
@@ -361,6 +362,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     torch.set_num_threads(settings.threads)
     torch.set_flush_denormal(True)  # otherwise Adam crawls through denormal numbers on CPU
     seed_everything(settings.seed)
+    total_epochs = epochs or settings.epochs  # the run's length (the lr schedule spans it)
     n_future = train_arrays.future.shape[1]
     model = conv_layout(YNet(settings.model_config(n_past, n_future)), device)  # seeded init on CPU
     optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
@@ -372,7 +374,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     partial_losses: list[float] = []
     identity = {"run": run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)}
     kept_best = checkpoint.with_name(checkpoints.BEST)  # the best weights, beside the checkpoint
-    resumed = checkpoints.resume(checkpoint, identity, epochs or settings.epochs, "train_ynet")
+    resumed = checkpoints.resume(checkpoint, identity, total_epochs, "train_ynet")
     if resumed is not None:
         model.load_state_dict(resumed.state["model"])
         optimizer.load_state_dict(resumed.state["optimizer"])
@@ -394,7 +396,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
                           "progress": progress},
                          None if losses is None else {"losses": list(losses)})
 
-    for epoch in range(state["epoch"] + 1, (epochs or settings.epochs) + 1):
+    for epoch in range(state["epoch"] + 1, total_epochs + 1):
         if preemption.stop_reason():  # the last epoch's checkpoint is already on disk
             raise preemption.request(f"the end of epoch {epoch - 1}")
         start = time.perf_counter()
@@ -402,7 +404,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
         plan = epoch_plan(train_scenes, settings, rng)
         loss = train_epoch(model, optimizer, train_scenes, settings, plan, epoch, partial_losses,
                            device, preemption, lambda losses: save_checkpoint(plan_state, losses),
-                           epochs or settings.epochs)
+                           total_epochs)
         partial_losses = []
         scores = validate(model, val_scenes, settings)
         state["seconds"] += time.perf_counter() - start
