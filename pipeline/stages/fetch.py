@@ -1,8 +1,9 @@
 """Stage `fetch@<source>`: copy one raw data source into `data/raw/<source>/`, verified.
 
-Locations are tried in the order `fetch.locations` lists them; the first that has every file of the
-source's manifest with the manifest's SHA-256 wins (`pipeline.data.fetch`). A failed fetch leaves no
-half-written output. Params: `fetch.locations`, `fetch.timeout_s`.
+Locations are tried in the order `fetch.locations` lists them (a mirror, or the `upstream` mapping
+onto the sources' public repositories); the first that has every file of the source's manifest with
+the manifest's SHA-256 wins (`pipeline.data.fetch`). A failed fetch leaves no half-written output.
+Params: `fetch.locations`, `fetch.timeout_s`.
 
     python -m pipeline.stages.fetch --source sdd --manifest manifests/sdd.sha256 --out data/raw/sdd
 """
