@@ -13,6 +13,7 @@ from ynet.sampling import (
     expected_position,
     distinct_points,
     kmeans,
+    nearest_centre,
     predict,
     sample_positions,
     sample_waypoints,
@@ -87,13 +88,14 @@ def test_kmeans_converges_to_lloyd_fixed_points_and_finds_separated_clusters():
 
 
 def plain_kmeans(points, k, generator, max_iter=1000, tol=1e-3):
-    """Lloyd's k-means over every point (duplicates included), the algorithm `kmeans` must equal."""
+    """Lloyd's k-means over every point (duplicates included) on squared distances, as
+    kmeans_pytorch: the algorithm `kmeans` must equal."""
     n, p, _ = points.shape
     first = torch.rand(n, p, generator=generator).argsort(dim=-1)[:, :k]
     centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))
     active = torch.ones(n, dtype=torch.bool)
     for _ in range(max_iter):
-        owner = torch.cdist(points, centres).argmin(-1)  # (N, P)
+        owner = (points[:, :, None] - centres[:, None]).square().sum(-1).argmin(-1)  # (N, P)
         new = torch.stack([torch.stack([points[b][owner[b] == c].mean(0) if (owner[b] == c).any()
                                         else torch.full((2,), float("nan")) for c in range(k)])
                            for b in range(n)])
@@ -282,3 +284,19 @@ def test_predict_bf16_changes_only_the_trajectory_decoder():
     bf16 = predict(model, x, past[:, -1], options, gen(3), 60.0, bf16=True)
     assert torch.equal(fp32.waypoints, bf16.waypoints)
     assert_close(bf16.trajectory, fp32.trajectory, rtol=0, atol=0.5)
+
+
+def test_nearest_centre_is_the_first_centre_at_the_least_squared_distance():
+    points = torch.tensor([[[0.0, 0.0], [2.0, 0.0], [5.0, 5.0]]])  # (1, 3, 2)
+    centres = torch.tensor([[[1.0, 0.0], [0.0, 1.0], [3.0, 0.0], [5.0, 4.0]]])  # (1, 4, 2)
+    # (0, 0) is 1 from the first two centres (first wins); (2, 0) is 1 from centres 0 and 2.
+    assert nearest_centre(points, centres).tolist() == [[0, 0, 3]]
+    draws = torch.Generator().manual_seed(3)
+    points = torch.randint(0, 6, (3, 50, 2), generator=draws).float()  # many exact ties
+    centres = torch.randint(0, 6, (3, 7, 2), generator=draws).float()
+    squared = (points[:, :, None] - centres[:, None]).square().sum(-1)  # (N, U, k)
+    assert torch.equal(nearest_centre(points, centres), squared.argmin(-1))
+    points = torch.rand(2, 300, 2, generator=draws) * 90  # non-integer points
+    centres = torch.rand(2, 19, 2, generator=draws) * 90
+    squared = (points[:, :, None] - centres[:, None]).square().sum(-1)
+    assert torch.equal(nearest_centre(points, centres), squared.argmin(-1))

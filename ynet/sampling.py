@@ -143,6 +143,25 @@ def distinct_points(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return unique, weights
 
 
+def nearest_centre(points: torch.Tensor, centres: torch.Tensor) -> torch.Tensor:
+    """Index of each point's nearest centre, the first on ties: (N, U, 2), (N, k, 2) -> (N, U).
+
+    Compares squared distances, as kmeans_pytorch's `pairwise_distance` does (no square root,
+    which could round two different distances to a tie). An argmin over a short last axis (k of
+    about 20) is slow on a CPU, so this takes the minimum along the centre axis of (N, k, U), which
+    vectorises, and picks the first centre that attains it (in-place ops on contiguous float
+    tensors: a bool mask would cost more than the distances).
+    """
+    k = centres.shape[1]
+    px, py = (c.contiguous() for c in points.unbind(-1))  # (N, U) each
+    cx, cy = (c.contiguous() for c in centres.unbind(-1))  # (N, k) each
+    squared = (px[:, None] - cx[..., None]).square_()  # (N, k, U)
+    squared.add_((py[:, None] - cy[..., None]).square_())
+    is_nearest = squared.eq_(squared.amin(1, keepdim=True))  # 1.0 where a centre attains the min
+    rank_from_last = torch.arange(k, 0, -1, dtype=squared.dtype, device=squared.device)[:, None]
+    return k - is_nearest.mul_(rank_from_last).amax(1).long()  # the first centre at the minimum
+
+
 def kmeans(
     points: torch.Tensor,
     k: int,
@@ -169,8 +188,7 @@ def kmeans(
     weighted = unique * weights[..., None]  # (N, U, 2)
     active = torch.ones(n, dtype=torch.bool, device=points.device)
     for _ in range(max_iter):
-        dist = torch.cdist(unique, centres, compute_mode="donot_use_mm_for_euclid_dist")  # (N, U, k)
-        nearest = dist.argmin(-1)  # (N, U)
+        nearest = nearest_centre(unique, centres)  # (N, U)
         counts = points.new_zeros(n, k).scatter_add_(1, nearest, weights)  # (N, k)
         sums = points.new_zeros(n, k, 2).scatter_add_(1, nearest[..., None].expand(n, -1, 2), weighted)
         new = sums / counts.clamp_min(1)[..., None]  # (N, k, 2)
