@@ -1,4 +1,4 @@
-"""Stage `tracks`: every SDD video's `annotations.txt`, parsed into one parquet table, and where each came from.
+"""Stage `tracks`: each SDD video's `annotations.txt` parsed into one table, and where each came from.
 
 The files are the fetched mirror's and, with `data.sdd.path`, your own SDD copy's: a file the
 manifest pins must match it, any other is parsed and fingerprinted (`pipeline.data.sdd_sources`).
