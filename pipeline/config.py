@@ -416,11 +416,34 @@ class IndParams:
 
 
 @dataclass(frozen=True)
+class SddParams:
+    """Section `data.sdd` of params.yaml: where the user's own copy of the Stanford Drone Dataset is."""
+
+    path: str | None = ""
+    """The folder of the official SDD download holding `annotations/<scene>/video<k>/annotations.txt`
+    (and `reference.jpg`), absolute or relative to the repository root; empty: the raw annotations
+    are the fetched mirror's only (`data/raw/sdd`). Files the manifest pins must match it; the others
+    are parsed and fingerprinted (`pipeline.data.sdd_sources`)."""
+
+    def __post_init__(self) -> None:
+        if self.path is None:  # `path:` with nothing after it in YAML: empty, always a str after
+            object.__setattr__(self, "path", "")
+        elif not isinstance(self.path, str):
+            raise ValueError(f"path must be a folder path (a string), got {self.path!r}")
+
+    @property
+    def provided(self) -> bool:
+        return bool(self.path)
+
+
+@dataclass(frozen=True)
 class DataParams:
     """Section `data` of params.yaml: data the user supplies from outside the repository."""
 
     ind: IndParams
     """inD (licence-restricted, never redistributed)."""
+    sdd: SddParams = field(default_factory=SddParams)
+    """Your own copy of SDD, beside the fetched mirror (default: none)."""
 
 
 # ---------------------------------------------------------------------------------------------

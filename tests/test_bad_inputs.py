@@ -113,9 +113,11 @@ def test_section_that_is_not_a_mapping_is_named():
 def test_a_stage_stops_on_a_missing_section_before_writing(tmp_path, monkeypatch):
     write_annotations(tmp_path / "sdd", "gates", 2, annotation_lines(1, range(3), 0, 0, 1, 0))
     monkeypatch.chdir(tmp_path)
+    write_manifest(tmp_path / "sdd", tmp_path / "sdd.sha256")
     (tmp_path / "params.yaml").write_text("windows: {}\n")
     with pytest.raises(ParamsError, match=r"^params.yaml: missing section 'compat'$"):
-        tracks_stage.main(["--sdd", "sdd", "--out", "out/sdd.parquet"])
+        tracks_stage.main(["--sdd", "sdd", "--manifest", "sdd.sha256", "--out", "out/sdd.parquet",
+                           "--sources", "out/sdd_sources.json"])
     assert not (tmp_path / "out").exists()
 
 
@@ -261,9 +263,11 @@ def test_annotation_folder_not_named_video_k_stops_the_stage(tmp_path, monkeypat
     with pytest.raises(AnnotationError, match=rf"^{message}$"):
         build_tracks(tmp_path / "sdd")
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text("compat: {drop_first_row: false}\n")
+    write_manifest(tmp_path / "sdd", tmp_path / "sdd.sha256")
+    (tmp_path / "params.yaml").write_text("compat: {drop_first_row: false}\ndata: {ind: {}}\n")
     with pytest.raises(SystemExit, match=rf"^tracks: {message}$"):
-        tracks_stage.main(["--sdd", str(tmp_path / "sdd"), "--out", "out/sdd.parquet"])
+        tracks_stage.main(["--sdd", str(tmp_path / "sdd"), "--manifest", "sdd.sha256",
+                           "--out", "out/sdd.parquet", "--sources", "out/sdd_sources.json"])
     assert nothing_written(tmp_path, "out")
 
 
@@ -435,7 +439,8 @@ def mirror(tmp_path):
     """The fixture mirror, its tracks parquet and a params.yaml; cwd is tmp_path."""
     write_mirror(tmp_path / "mirror", tmp_path / "manifests")
     build_tracks(tmp_path / "mirror" / "sdd").to_parquet(tmp_path / "tracks.parquet", index=False)
-    (tmp_path / "params.yaml").write_text(WINDOWS_YAML + "compat: {drop_first_row: false}\n")
+    (tmp_path / "params.yaml").write_text(WINDOWS_YAML + "compat: {drop_first_row: false}\n"
+                                          "data: {ind: {}, sdd: {path: ''}}\n")
     return tmp_path
 
 
@@ -513,7 +518,8 @@ def test_audit_stage_fails_on_windows_no_known_cause_explains(mirror, monkeypatc
     with pytest.raises(SystemExit, match=r"^audit: unexplained mismatches between our windows and "
                                          r"the release:\n  gates_2 track 1 frames 100-1120\n  "
                                          r"gates_2 track 1 frames 1150-2170$"):
-        audit_stage.main(["--sdd", "mirror/sdd", "--windows", str(windows), "--out", "out/audit.json"])
+        audit_stage.main(["--sdd", "mirror/sdd", "--manifest", "manifests/sdd.sha256",
+                          "--windows", str(windows), "--out", "out/audit.json"])
     assert not (mirror / "out" / "audit.json").exists()
 
 

@@ -8,6 +8,7 @@ skips locally and fails in CI.
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 import math
@@ -71,7 +72,19 @@ def data_metrics() -> dict[str, object]:
             f"tf{h}": {"raw": {"windows": 700 - 10 * h, "cv_ade": 3.5 * h, "cv_fde": 7.25 * h},
                        "release_chain": {"windows": 190 - h, "cv_ade": 3.0 * h, "cv_fde": 6.5 * h},
                        "kept_fraction": 0.25} for h in HORIZONS},
+        "sdd_sources.json": sdd_sources({"gates_2": "fetched", "nexus_10": "fetched"}),
     }
+
+
+def sdd_sources(origins: dict[str, str], images: dict[str, dict] | None = None,
+                path: str = "") -> dict:
+    """Stage tracks' record: the given videos, pinned unless fingerprinted from the copy."""
+    videos = {video: {"origin": origin, "file": f"annotations/{video.replace('_', '/video')}/annotations.txt",
+                      "sha256": hashlib.sha256(video.encode()).hexdigest(),
+                      "pinned": origin != "your copy (fingerprinted)", "rows": 1000}
+              for video, origin in origins.items()}
+    return {"copy": {"provided": bool(path), "path": path}, "videos": videos,
+            "reference_images": images or {}, "totals": {"videos": len(videos)}}
 
 
 def model_metrics() -> dict[str, object]:
@@ -697,6 +710,52 @@ def test_paper_values_sit_where_the_papers_tables_print_them():
     for name, values in rows.items():
         scene = name.lower()
         assert values == [m[metric][scene] for m in paper["eth_ucy"]["models"] for metric in ("ade", "fde")], name
+
+
+def per_video_row(html: str, video: str) -> list[str]:
+    """The cells of `video`'s row in the provenance table of raw annotations and horizon windows."""
+    match = re.search(rf"<tr><td>{video}</td><td>([^<]*)</td><td>([^<]*)</td><td>([^<]*)</td></tr>", html)
+    assert match, f"no per-video row for {video}"
+    return list(match.groups())
+
+
+def test_provenance_says_where_the_sdd_annotations_came_from(project):
+    html = full_project(project).read_text()  # data_metrics: the mirror only, 2 videos
+    assert "The raw annotations are the pinned mirror's 2 videos" in html
+    assert "set <code>data.sdd.path</code> in params.yaml" in html
+    assert "fingerprinted file of your copy" not in html
+    assert per_video_row(html, "gates_2") == ["test", "fetched", "raw"]
+    assert per_video_row(html, "coupa_0") == ["test", "none", "release-chained"]
+    assert per_video_row(html, "nexus_10") == ["outside the split", "fetched",
+                                                "none (outside the TrajNet split)"]
+    assert ("The horizon benchmark's windows are raw on the 1 TrajNet videos with raw annotations and "
+            "cut from chained release windows on the other 46.") in html
+
+    files = data_metrics() | model_metrics()
+    image = {"sha256": "c0" * 32, "pinned": False}
+    files["sdd_sources.json"] = record = sdd_sources(
+        {"gates_2": "fetched; your copy identical", "coupa_3": "your copy (fingerprinted)",
+         "bookstore_0": "fetched"},
+        images={"annotations/coupa/video3/reference.jpg": image,
+                "annotations/gates/video2/reference.jpg": {"sha256": "d1" * 32, "pinned": True}},
+        path="/data/stanford_campus_dataset")
+    write_metrics(project / "metrics", files)
+    html = run_report(project).read_text()
+    assert_well_formed(html)
+    assert "<code>data.sdd.path</code> = <code>/data/stanford_campus_dataset</code>" in html
+    assert ("3 videos with raw annotations, fetched <b>1</b>, fetched; your copy identical <b>1</b>, "
+            "your copy (fingerprinted) <b>1</b>") in html
+    fingerprinted = re.findall(r"<tr><td>([^<]*)</td><td><code>([0-9a-f]{64})</code></td></tr>", html)
+    assert fingerprinted == [("annotations/coupa/video3/annotations.txt",
+                              record["videos"]["coupa_3"]["sha256"]),
+                             ("annotations/coupa/video3/reference.jpg", "c0" * 32)]
+    assert per_video_row(html, "coupa_3") == ["train", "your copy (fingerprinted)", "raw"]
+    assert per_video_row(html, "gates_2") == ["test", "fetched; your copy identical", "raw"]
+
+    write_metrics(project / "metrics", {"sdd_sources.json": []})
+    assert "metrics/sdd_sources.json: not a mapping" in run_report(project).read_text()
+    (project / "metrics/sdd_sources.json").unlink()
+    assert "sdd_sources.json missing" in run_report(project).read_text()
 
 
 def test_provenance_counts_code_and_params_changes_never_outputs(tmp_path):

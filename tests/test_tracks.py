@@ -4,7 +4,7 @@ import pytest
 
 from pipeline.data.tracks import AnnotationError, build_tracks, parse_annotations
 from pipeline.stages import tracks as tracks_stage
-from tests.fixtures import annotation_lines, write_annotations
+from tests.fixtures import annotation_lines, write_annotations, write_manifest
 
 
 def test_box_centres_and_all_rows_kept(tmp_path):
@@ -81,9 +81,11 @@ def test_rows_that_contradict_each_other_stop_the_stage(tmp_path, monkeypatch, e
     with pytest.raises(AnnotationError, match=rf"^{re.escape(str(path))}{message}"):
         parse_annotations(path)
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "params.yaml").write_text("compat: {drop_first_row: false}\n")
+    write_manifest(tmp_path / "sdd", tmp_path / "sdd.sha256")
+    (tmp_path / "params.yaml").write_text("compat: {drop_first_row: false}\ndata: {ind: {}}\n")
     with pytest.raises(SystemExit, match=rf"tracks: {re.escape(str(path))}{message}"):
-        tracks_stage.main(["--sdd", str(tmp_path / "sdd"), "--out", "out/sdd.parquet"])
+        tracks_stage.main(["--sdd", str(tmp_path / "sdd"), "--manifest", "sdd.sha256",
+                           "--out", "out/sdd.parquet", "--sources", "out/sdd_sources.json"])
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 

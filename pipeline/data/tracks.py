@@ -1,4 +1,5 @@
-"""SDD annotations: every `annotations.txt` present, parsed into one table of tracks (stage `tracks`).
+"""SDD annotations: `annotations.txt` files parsed into one table of tracks (stage `tracks`; which
+files, `pipeline.data.sdd_sources`).
 
 Input rows are `track xmin ymin xmax ymax frame lost occluded generated "label"` at 30 FPS.
 Output: one row per annotation (none dropped unless `compat.drop_first_row` asks for the
@@ -137,8 +138,14 @@ def find_annotation_files(sdd_root: Path) -> list[tuple[str, int, Path]]:
     return found
 
 
-def build_tracks(sdd_root: Path, drop_first_row: bool = False) -> pd.DataFrame:
+def tracks_from_files(files: list[tuple[str, int, Path]], drop_first_row: bool = False) -> pd.DataFrame:
+    """(scene, video, annotations.txt) of each video, in order -> one TRACK_COLUMNS table."""
     parts = []
-    for scene, video, path in tqdm(find_annotation_files(sdd_root), desc="parse", disable=None):
+    for scene, video, path in tqdm(files, desc="parse", disable=None):
         parts.append(video_tracks(parse_annotations(path), scene, video, drop_first_row))
     return pd.concat(parts, ignore_index=True)
+
+
+def build_tracks(sdd_root: Path, drop_first_row: bool = False) -> pd.DataFrame:
+    """Every annotations.txt under one SDD root, parsed (`find_annotation_files` order)."""
+    return tracks_from_files(find_annotation_files(sdd_root), drop_first_row)

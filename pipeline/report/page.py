@@ -24,7 +24,9 @@ results is shown as its reason):
 - `short_term/ethucy_<scene>.json`: {"rounds", "models": {<model>: {"ade": {...}, "fde": {...}}}}
 - `ind_benchmark.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
 - `segmentation.json`: {"miou", "iou": {class: iou}}; the data files `windows.json`,
-  `data_audit.json`, `horizon_windows.json`, `chain_bias.json`.
+  `data_audit.json`, `horizon_windows.json`, `chain_bias.json`, and `sdd_sources.json` (stage
+  `tracks`: {"copy": {"provided", "path"}, "videos": {<video>: {"origin", "file", "sha256",
+  "pinned", "rows"}}, "reference_images": {<file>: {"sha256", "pinned"}}, "totals"}).
 A value is a number (measured once) or {"mean", "std", ...} over seeded rounds
 (`pipeline.harness.metrics.seeded_rounds`, the one layout every scoring stage writes).
 
@@ -42,6 +44,7 @@ import platform
 import re
 import subprocess
 import sys
+from collections import Counter
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,7 +58,7 @@ from pipeline.config import ReportParams
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)
 from pipeline.io import atomic_dir, write_text
-from pipeline.data.splits import TEST_VIDEOS
+from pipeline.data.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
 TEMPLATE = Path(__file__).parent / "templates" / "report.html.j2"
 METRICS = ("ade", "fde")
@@ -837,6 +840,44 @@ def manifest_checksums(folder: Path) -> list[dict[str, Any]]:
             for p in sorted(folder.glob("*.sha256"))]
 
 
+def sdd_sources(store: MetricsStore, val_videos: Iterable[str]) -> dict[str, Any]:
+    """Where the SDD raw annotations came from (stage `tracks`' `sdd_sources.json`): videos per
+    origin, the files of your copy the manifest does not pin (with their SHA-256), and per video
+    whether the horizon benchmark's windows are raw or cut from chained release windows (stage
+    `horizon_windows` cuts raw windows on every TrajNet video with raw annotations, chains on the
+    others; raw videos outside the split give none)."""
+    record = store.record("sdd_sources.json")
+    if isinstance(record, Absent):
+        return {"absent": record}
+    if not isinstance(record, dict):
+        return {"absent": Absent(f"{store.where('sdd_sources.json')}: not a mapping", "invalid")}
+
+    def part(key: str) -> dict:
+        return record[key] if isinstance(record.get(key), dict) else {}
+
+    videos, images, copy = part("videos"), part("reference_images"), part("copy")
+    by_video = sorted(videos.items(), key=lambda item: video_sort_key(item[0]))
+    fingerprinted = ([{"file": v.get("file", name), "sha256": v.get("sha256", "n/a")}
+                      for name, v in by_video if isinstance(v, dict) and not v.get("pinned")]
+                     + [{"file": rel, "sha256": i.get("sha256", "n/a")} for rel, i in sorted(images.items())
+                        if isinstance(i, dict) and not i.get("pinned")])
+    trajnet = TRAIN_VIDEOS | TEST_VIDEOS
+    rows = []
+    for name in sorted(trajnet | set(videos), key=video_sort_key):
+        entry = videos.get(name)
+        rows.append({"video": name, "split": split_of(name, set(val_videos)) or "outside the split",
+                     "origin": entry.get("origin", "n/a") if isinstance(entry, dict) else "none",
+                     "horizon": ("none (outside the TrajNet split)" if name not in trajnet
+                                 else "raw" if entry is not None else "release-chained")})
+    return {"absent": None, "provided": bool(copy.get("provided")), "path": copy.get("path", ""),
+            "n_videos": len(videos),
+            "origins": dict(sorted(Counter(str(v.get("origin", "n/a")) for _, v in by_video
+                                           if isinstance(v, dict)).items())),
+            "fingerprinted": fingerprinted, "rows": rows,
+            "n_raw": sum(r["horizon"] == "raw" for r in rows),
+            "n_chained": sum(r["horizon"] == "release-chained" for r in rows)}
+
+
 def raw_data_hashes(lock: Mapping[str, Any] | Absent) -> list[dict[str, Any]] | Absent:
     """The md5 DVC recorded for each data/raw/<source> output."""
     if isinstance(lock, Absent):
@@ -1019,6 +1060,7 @@ def provenance_section(inputs: Inputs, lock: Mapping[str, Any] | Absent, params:
     return {"git": git_state(inputs.repo, outputs), "params_text": params_text,
             "profiles": profiles(params, store), "manifests": manifest_checksums(inputs.manifests),
             "raw_hashes": raw_data_hashes(lock), "machine": machine(),
+            "sdd_sources": sdd_sources(store, (params.get("split") or {}).get("val_videos") or []),
             "timings": stage_timings(store), "stage_profile": stage_profile(inputs.stage_times),
             "metrics_files": sorted(store.where(rel) for rel in store.files)}
 
