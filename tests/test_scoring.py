@@ -11,6 +11,7 @@ from scipy import linalg
 from scipy.stats import gaussian_kde
 
 from pipeline.harness import scoring
+from pipeline.harness.metrics import window_errors
 from pipeline.harness.scoring import (ALLOWED, FORBIDDEN, OUTSIDE, aggregate, best_endpoint_ade,
                                       class_values, collisions, forbidden_share, kde_log_pdf,
                                       kde_nll, mask_pixels, min_ade_fde, miss, per_scene_means,
@@ -39,6 +40,21 @@ def test_min_ade_fde_independent_and_joint():
     np.testing.assert_array_equal(got["fde"], [3.0, 0.0])  # min(4, 3): another sample than ADE's
     np.testing.assert_array_equal(got["ade_joint"], [2.0, 0.0])
     np.testing.assert_array_equal(got["fde_joint"], [4.0, 0.0])  # FDE of sample 0, best on ADE
+
+
+def test_min_ade_fde_measures_fde_on_goals_where_given():
+    # Goals (N, K, 2): window 0 sample 0 exact (FDE 0), sample 1 5 away; window 1 both 5 away.
+    goals = np.array([[[2.0, 0.0], [5.0, 4.0]], [[3.0, 4.0], [9.0, 4.0]]])
+    got = min_ade_fde(PRED, TRUTH, goals)
+    np.testing.assert_array_equal(got["ade"], [2.0, 0.0])  # paths as before
+    np.testing.assert_array_equal(got["fde"], [0.0, 5.0])  # on the goals, not the last points
+    np.testing.assert_array_equal(got["fde_joint"], [0.0, 5.0])  # goal of the best-ADE sample
+    errors = window_errors(PRED, TRUTH, goals)  # exactly the in-memory metric
+    for key, value in (("ade", errors.ade), ("fde", errors.fde), ("ade_joint", errors.ade),
+                       ("fde_joint", errors.fde_joint)):
+        np.testing.assert_array_equal(got[key], value)
+    with pytest.raises(ValueError, match=r"goals must be \(N, K, 2\)"):
+        min_ade_fde(PRED, TRUTH, goals[:, :, 0])
 
 
 def test_best_endpoint_ade_takes_the_path_of_the_best_endpoint():

@@ -4,10 +4,10 @@
 
 Inputs: predictions `pred` (N, K, T, 2) and the future ground truth `truth` (N, T, 2), both in the
 benchmark's unit (original image pixels for SDD, metres for ETH/UCY); optional sample weights
-(N, K). Every function checks its shapes and raises ValueError naming the shape it got.
+(N, K) and, for min-ADE/FDE, separately predicted goals (N, K, 2). Every function checks its shapes and raises ValueError naming the shape it got.
 
 - `min_ade_fde`: the paper's best-of-K ADE and FDE (independent minima) and the joint ones (one
-  sample), straight from `pipeline.harness.metrics.window_errors`.
+  sample), straight from `pipeline.harness.metrics.window_errors` (FDE on the goals where given).
 - `best_endpoint_ade`: ADE of the sample whose endpoint is closest to the true one (PECNet's
   protocol: its test code picks the best destination first, then scores that sample's path).
 - `miss`: whether the best endpoint is further than a stated threshold (the miss rate's windows).
@@ -56,12 +56,16 @@ def check_per_window(values: Any, n: int, name: str) -> np.ndarray:
 # Displacement errors
 
 
-def min_ade_fde(pred: Any, truth: Any) -> dict[str, np.ndarray]:
+def min_ade_fde(pred: Any, truth: Any, goals: Any | None = None) -> dict[str, np.ndarray]:
     """Per window (N,): 'ade' and 'fde', min over K taken independently (the paper's protocol; the
     two may come from different samples), and 'ade_joint' / 'fde_joint', both of the one sample
-    with the lowest ADE (ties to the lowest index). Keys as `metrics.METRIC_KEYS`."""
+    with the lowest ADE (ties to the lowest index). Keys as `metrics.METRIC_KEYS`.
+
+    `goals` (N, K, 2), for a model that predicts a goal apart from its path (Y-net: a stored file's
+    goal_x / goal_y), measure FDE on the goal instead of the path's last point, exactly as
+    `metrics.window_errors(pred, truth, goals)` does when scoring in memory."""
     pred, truth = check_paths(pred, truth)
-    errors = window_errors(pred, truth)
+    errors = window_errors(pred, truth, goals)
     return {"ade": errors.ade, "fde": errors.fde, "ade_joint": errors.ade,
             "fde_joint": errors.fde_joint}
 
