@@ -15,13 +15,16 @@ import yaml
 
 from pipeline import checkpoints
 from pipeline.harness import baseline_runs, baselines
-from pipeline.stages import evaluate_baseline, evaluate_pecnet_ka, train_baseline
+from pipeline.stages import (evaluate_baseline, evaluate_constant_velocity, evaluate_pecnet_ka,
+                             evaluate_rpecnet, train_baseline)
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.constant_velocity import ConstantVelocity, extrapolate
 from pipeline.harness.baselines.pecnet import Pecnet, PecnetConfig, reversed_windows
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet, rollout
 from pipeline.harness.baselines.sgan import SganConfig, SocialGan
 from pipeline.harness.metrics import window_errors
+from pipeline.harness.predictions import prediction_arrays, read_predictions
+from pipeline.harness.scoring import min_ade_fde
 from pipeline.config import (PARAMS_FILE, EvaluateBaselineParams, ParamsError, TrainBaselineParams,
                              from_dict, load_section, read_params)
 from pipeline.data.window_table import WindowArrays, conform, to_arrays
@@ -242,6 +245,20 @@ def window_table(arrays: WindowArrays, splits: list[str]) -> pd.DataFrame:
         "t_f": length - N_PAST, "source": "raw"}))
 
 
+def stored_round_scores(predictions: Path, table: Path) -> list[dict[str, float]]:
+    """Each round's means of a stored predictions file, scored against its window table's truth
+    (joined by window id) with `scoring.min_ade_fde`."""
+    stored, _ = read_predictions(predictions)
+    truth = to_arrays(pd.read_parquet(table), N_PAST)
+    scores = []
+    for r in sorted(stored["round"].unique()):
+        arrays = prediction_arrays(stored, round=r)
+        future = truth.future[np.searchsorted(truth.window_id, arrays.window_ids)]  # (N, n_f, 2)
+        errors = min_ade_fde(arrays.samples, future, arrays.goals)
+        scores.append({key: float(value.mean()) for key, value in errors.items()})
+    return scores
+
+
 def test_stages_train_and_evaluate(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     for tf in (5, 7):
@@ -265,14 +282,31 @@ def test_stages_train_and_evaluate(tmp_path, monkeypatch):
             ("rpecnet", "7", "tf7", ["--checkpoint-dir", "ck/pecnet_tf5"]),
             ("constant_velocity", "7", "tf7", [])]
     for model, horizon, table, extra in runs:
-        out = f"m/{model}_{table}.json"
+        out, stored = f"m/{model}_{table}.json", tmp_path / "p" / table / f"{model}.parquet"
         evaluate_baseline.main(["--model", model, "--horizon", horizon, "--table", f"{table}.parquet",
-                                "--metrics", out, *extra])
+                                "--metrics", out, "--predictions", str(stored), *extra])
         scores = json.loads((tmp_path / out).read_text())
         assert scores["k"] == 3 and scores["n_windows"] == 3 and scores["rounds"] == 2
         assert scores["horizon"] == int(horizon) and scores["fde_joint"]["mean"] >= scores["fde"]["mean"]
         assert len(scores["per_round"]) == 2 and "train_seconds" in scores
+        # every round's predictions stored, in pixels: scored from the file, the same numbers
+        assert stored_round_scores(stored, tmp_path / f"{table}.parquet") == scores["per_round"]
+        table_read, metadata = read_predictions(stored)
+        assert {key: metadata[key] for key in ("model", "benchmark", "unit", "seeds", "k")} == {
+            "model": model, "benchmark": f"sdd_long_term_{table}", "unit": "px", "seeds": [0, 1],
+            "k": 3}
+        assert sorted(table_read["window_id"].unique()) == [9, 10, 11]  # the test split's ids
+        assert table_read["weight"].isna().all() and table_read["goal_x"].isna().all()
     assert scores["ade"]["mean"] < 1e-6  # constant velocity on straight tracks
+    # the one-model stages write the same files as evaluate_baseline for that model
+    evaluate_constant_velocity.main(["--horizon", "7", "--table", "tf7.parquet", "--metrics",
+                                     "m/cv.json", "--predictions", "p/cv.parquet"])
+    evaluate_rpecnet.main(["--horizon", "7", "--table", "tf7.parquet", "--checkpoint-dir",
+                           "ck/pecnet_tf5", "--metrics", "m/rp.json",
+                           "--predictions", "p/rp.parquet"])
+    for short, model in (("cv", "constant_velocity"), ("rp", "rpecnet")):
+        assert read_predictions(tmp_path / "p" / f"{short}.parquet")[0].equals(
+            read_predictions(tmp_path / "p" / "tf7" / f"{model}.parquet")[0])
     with pytest.raises(ValueError, match="horizon"):  # a table of another horizon
         train_baseline.main(["--model", "sgan", "--horizon", "5", "--table", "tf7.parquet",
                              "--checkpoint-dir", "ck/x", "--metrics", "m/x.json"])

@@ -1,6 +1,7 @@
 """The Y-net horizon stages (`train_ynet_horizon`, `evaluate_ynet_horizon`) run as DVC runs them, on
 a fixture with params.yaml's real `cpu` settings (one epoch): a horizon the profile trains, scored
-twice with identical metrics, and one it does not train, which says why."""
+twice with identical metrics and its stored predictions scoring to the same numbers, and one it
+does not train, which says why (in its metrics and in an empty predictions file)."""
 
 import json
 from pathlib import Path
@@ -11,7 +12,10 @@ import pandas as pd
 import yaml
 
 from pipeline.data.semantic_maps import quantise
-from pipeline.data.window_table import conform
+from pipeline.data.window_table import conform, to_arrays
+from pipeline.harness.metrics import window_errors
+from pipeline.harness.predictions import prediction_arrays, read_predictions
+from pipeline.harness.scoring import min_ade_fde
 from pipeline.stages import evaluate_ynet_horizon, train_ynet_horizon
 from tests.fixtures import write_maps_folder
 from ynet.segmentation import CLASS_NAMES
@@ -72,9 +76,10 @@ def test_a_trained_horizon_is_scored_reproducibly_and_an_untrained_one_says_why(
     assert trained["train_windows"] == 6 and np.isfinite(trained["best_val_ade"])
 
     scored = []
-    for name in ("a.json", "b.json"):
-        evaluate_ynet_horizon.main(stage_args(HORIZON, "--train-metrics", "train.json", "--metrics", name))
-        scored.append(json.loads(Path(name).read_text()))
+    for name in ("a", "b"):
+        evaluate_ynet_horizon.main(stage_args(HORIZON, "--train-metrics", "train.json", "--metrics",
+                                              f"{name}.json", "--predictions", f"{name}.parquet"))
+        scored.append(json.loads(Path(f"{name}.json").read_text()))
     first, again = ({k: v for k, v in record.items() if "seconds" not in k} for record in scored)
     assert first == again  # bit-identical metrics from the same checkpoint and seeds
     assert first["t_f"] == HORIZON and first["n_windows"] == 3
@@ -83,9 +88,28 @@ def test_a_trained_horizon_is_scored_reproducibly_and_an_untrained_one_says_why(
     assert first["main"]["k_e"] == params["eval"]["cpu"]["k_e"] and first["main"]["k_a"] == 1
     assert 0 < first["main"]["ade"]["mean"] and first["main"]["fde"]["mean"] <= first["main"]["fde_joint"]["mean"]
 
+    # every round's paths and sampled goals stored: scored from the file, the same numbers
+    stored, metadata = read_predictions(Path("a.parquet"))
+    assert stored.equals(read_predictions(Path("b.parquet"))[0])
+    assert metadata["model"] == "ynet" and metadata["benchmark"] == f"sdd_long_term_tf{HORIZON}"
+    assert metadata["seeds"] == [params["eval"]["cpu"]["seed"] + r for r in range(rounds)]
+    assert metadata["k"] == params["eval"]["cpu"]["k_e"] and metadata["unit"] == "px"
+    test = to_arrays(pd.read_parquet(f"tf{HORIZON}.parquet").query("split == 'test'"), N_PAST)
+    for r, in_memory in enumerate(first["main"]["per_round"]):
+        arrays = prediction_arrays(stored, round=r)
+        assert arrays.goals is not None and np.isnan(arrays.weights).all()
+        np.testing.assert_array_equal(arrays.window_ids, test.window_id)
+        from_file = min_ade_fde(arrays.samples, test.future, arrays.goals)
+        assert {key: float(value.mean()) for key, value in from_file.items()} == in_memory
+        # FDE is on the goals: without them the paths' last points give other numbers
+        assert window_errors(arrays.samples, test.future).fde.mean() != in_memory["fde"]
+
     train_ynet_horizon.main(stage_args(UNTRAINED, "--metrics", "train_untrained.json"))
     evaluate_ynet_horizon.main(stage_args(UNTRAINED, "--train-metrics", "train_untrained.json",
-                                          "--metrics", "untrained.json"))
+                                          "--metrics", "untrained.json", "--predictions",
+                                          "untrained.parquet"))
     untrained = json.loads(Path("untrained.json").read_text())
     assert untrained["trained"] is False and "cpu profile" in untrained["not_run_reason"]
+    nothing, why = read_predictions(Path("untrained.parquet"))
+    assert len(nothing) == 0 and why["not_run_reason"] == untrained["not_run_reason"]
     assert not any(Path("ck", f"tf{UNTRAINED}").iterdir())

@@ -19,6 +19,7 @@ import yaml
 from pipeline.stages import evaluate_ynet, train_ynet
 from pipeline.data.semantic_maps import quantise
 from pipeline.data.window_table import conform
+from pipeline.harness.predictions import prediction_arrays, read_predictions
 from tests.fixtures import write_maps_folder
 from ynet.segmentation import CLASS_NAMES
 
@@ -97,7 +98,8 @@ def test_paper_profile_trains_evaluates_and_writes_its_metrics(tmp_path, monkeyp
 
     evaluate_ynet.main(["--windows", "windows/release_tf30.parquet", "--model", "model.pt",
                         "--semantic-maps", "semantic_maps", "--sdd", "sdd", "--n-past", str(N_PAST),
-                        "--metrics", "ynet_eval.json", "--qualitative", "qualitative.npz"])
+                        "--metrics", "ynet_eval.json", "--qualitative", "qualitative.npz",
+                        "--predictions", "ynet.parquet"])
     result = json.loads(Path("ynet_eval.json").read_text())
     evaluation = params["eval"]["paper"]
     assert result["profile"] == "paper" and result["n_windows"] == 3
@@ -107,5 +109,8 @@ def test_paper_profile_trains_evaluates_and_writes_its_metrics(tmp_path, monkeyp
     assert all(len(row["per_round"]) == 3 for row in result["ablation"].values())
     grid = {(row["k_e"], row["k_a"]) for row in result["ka_grid"]}
     assert grid == {(k_e, k_a) for k_e in evaluation["ka_grid_k_e"] for k_a in evaluation["ka_grid_k_a"]}
+    stored, metadata = read_predictions(Path("ynet.parquet"))  # the main setting's 3 rounds
+    assert metadata["seeds"] == [0, 1, 2] and metadata["benchmark"] == "sdd_long_term_release_tf30"
+    assert prediction_arrays(stored, round=2).samples.shape == (3, 20, N_FUTURE, 2)
     with np.load("qualitative.npz") as figure:
         assert figure["predictions_0"].shape == (20, N_FUTURE, 2)

@@ -3,8 +3,11 @@
 `train` fits S-GAN or PECNet on a window table's `train` split (the epoch with the lowest
 min-over-K ADE on `val`, never `test`; stage `train_baseline`), `evaluate` scores any baseline with
 the shared metric over seeded rounds (stages `evaluate_baseline`, `evaluate_rpecnet`,
-`evaluate_constant_velocity`, `evaluate_pecnet_ka`, `evaluate_ind`), `training_facts` reads what a
-checkpoint folder records about its training. Checkpoints: `pipeline.harness.baselines.common`.
+`evaluate_constant_velocity`, `evaluate_pecnet_ka`, `evaluate_ind`), keeping every round's
+predictions where asked, `training_facts` reads what a checkpoint folder records about its
+training. `score_to_file` is what the long-term baseline stages do: the metrics file and the file of
+every test prediction (`pipeline.harness.predictions`). Checkpoints:
+`pipeline.harness.baselines.common`.
 Each model's settings are its config dataclass (sections `sgan` / `pecnet`, one per profile),
 chosen by `model_config`.
 """
@@ -25,6 +28,7 @@ from pipeline.harness import baselines
 from pipeline.harness.baselines.common import (fit_result_from, load_checkpoint, load_windows,
                                                select_split)
 from pipeline.harness.metrics import seeded_rounds, window_errors
+from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import write_json
 from pipeline.preemption import NEVER, Preemption
 
@@ -53,13 +57,17 @@ def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: 
     }
 
 
-def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device: torch.device = CPU) -> dict:
+def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device: torch.device = CPU,
+             kept: PredictionRounds | None = None) -> dict:
     """`seeded_rounds` of best-of-`k` errors (round r samples from a generator on `device`, the
-    model's, seeded with seed + r), with K, the window count and the time taken."""
+    model's, seeded with seed + r), with K, the window count and the time taken. `kept` (for
+    `arrays.window_id`) receives each round's predictions, exactly as scored."""
     t0 = time.perf_counter()
 
     def score_round(round_seed: int):
         pred = model.predict(arrays, k, seeded_generator(device, round_seed))  # (N, K, n_f, 2)
+        if kept is not None:
+            kept.add(round_seed, pred)
         return window_errors(pred, arrays.future)
 
     scored = seeded_rounds(score_round, rounds, seed)
@@ -92,26 +100,35 @@ def ka_rows(model, arrays, k_as: list[int], k_per_ka: int, rounds: int, seed: in
 
 
 def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, n_past: int,
-                params: EvaluateBaselineParams, device: torch.device = CPU) -> dict:
+                params: EvaluateBaselineParams, device: torch.device = CPU
+                ) -> tuple[dict, PredictionRounds]:
     """The metrics record of one baseline on split `params.split` of a window table (the layout of
-    `metrics/baselines/<model>_tf<H>.json`)."""
+    `metrics/baselines/<model>_tf<H>.json`) and every round's predictions, in original pixels."""
     fitted = baselines.get(model).load(checkpoint_dir, device)
     arrays = select_split(load_windows(table, n_past, horizon), params.split)
     if len(arrays) == 0:
         raise ValueError(f"{table}: no {params.split} windows")
-    scores = evaluate(fitted, arrays, params.k, params.rounds, params.seed, device)
-    return {"model": model, "horizon": horizon, "split": params.split, "seed": params.seed,
-            **scores, **training_facts(model, checkpoint_dir)}
+    kept = PredictionRounds(arrays.window_id)
+    scores = evaluate(fitted, arrays, params.k, params.rounds, params.seed, device, kept)
+    return ({"model": model, "horizon": horizon, "split": params.split, "seed": params.seed,
+             **scores, **training_facts(model, checkpoint_dir)}, kept)
 
 
 def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, metrics: Path,
-                  params: dict) -> None:
+                  predictions: Path, params: dict) -> None:
     """What the stages `evaluate_baseline`, `evaluate_rpecnet` and `evaluate_constant_velocity` do:
     `score_split` under `evaluate_baseline` (its threads), `windows.n_past` and `runtime.device` of
-    `params` (params.yaml as read), written to `metrics`."""
+    `params` (params.yaml as read), written to `metrics`, and every round's test predictions
+    written to `predictions` (no weights: these models give none)."""
     evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
     n_past = load_section(WindowParams, "windows", params).n_past
     torch.set_num_threads(evaluation.threads)
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
     print(f"evaluate_baseline {model} t_f = {horizon}: {describe(device)}", flush=True)
-    write_json(score_split(model, table, horizon, checkpoint_dir, n_past, evaluation, device), metrics)
+    scores, kept = score_split(model, table, horizon, checkpoint_dir, n_past, evaluation, device)
+    kept.write(predictions, {
+        "model": model, "benchmark": long_term_benchmark(table), "unit": "px",
+        "split": evaluation.split, "k": evaluation.k, "horizon": horizon,
+        "window_table": str(table),
+        "checkpoint_dir": None if checkpoint_dir is None else str(checkpoint_dir)})
+    write_json(scores, metrics)

@@ -329,24 +329,36 @@ def read_predictions(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     return table, metadata
 
 
+def long_term_benchmark(table: Path) -> str:
+    """The benchmark a long-term SDD window table defines, named after the table's file:
+    `sdd_long_term_tf<H>` for the horizon tables (`data/horizon_windows/tf<H>.parquet`),
+    `sdd_long_term_release_tf30` for the release's (`data/windows/release_tf30.parquet`). Window
+    ids belong to their table, so two tables are two benchmarks even where their windows agree
+    (the release's t_f = 30 test windows equal the horizon table's, under other ids)."""
+    return f"sdd_long_term_{Path(table).stem}"
+
+
 class PredictionRounds:
     """The rounds of one setting kept as a scorer samples them (`add`, round 0 first), written as
-    one predictions file with their seeds (`write`)."""
+    one predictions file with their seeds (`write`). `add` only keeps a copy of the arrays (the
+    scorer's timing stays its own); the table is built and checked when asked for."""
 
     def __init__(self, window_ids: Any):
         self.window_ids = np.asarray(window_ids)  # (N,) the windows every round predicts
-        self.tables: list[pd.DataFrame] = []
+        self.drawn: list[tuple[np.ndarray, np.ndarray | None, np.ndarray | None]] = []
         self.seeds: list[int] = []
 
     def add(self, seed: int, samples: Any, weights: Any | None = None,
             goals: Any | None = None) -> None:
-        """Keep the next round: `samples` (N, K, T, 2) drawn with `seed`, as `predictions_table`."""
-        self.tables.append(predictions_table(self.window_ids, samples, weights, goals,
-                                             round=len(self.tables)))
+        """Keep the next round: `samples` (N, K, T, 2) drawn with `seed`, with the samples'
+        `weights` (N, K) and `goals` (N, K, 2) where the model has them."""
+        self.drawn.append(tuple(None if a is None else np.array(a, dtype=np.float64)
+                                 for a in (samples, weights, goals)))
         self.seeds.append(int(seed))
 
     def table(self) -> pd.DataFrame:
-        return concat_rounds(self.tables)
+        return concat_rounds([predictions_table(self.window_ids, samples, weights, goals, round=r)
+                              for r, (samples, weights, goals) in enumerate(self.drawn)])
 
     def write(self, path: Path, metadata: dict[str, Any]) -> None:
         """`write_predictions` of every round kept, `metadata` plus the rounds' `seeds`."""

@@ -5,13 +5,16 @@ sequence of the long-term benchmarks (stages `evaluate_ynet`, `evaluate_ynet_hor
 `evaluation_sequence` is the main result (TTST + CWS over `eval.rounds` rounds), the Table 3/4
 ablation (no TTST no CWS, CWS only, both) and the K_e x K_a grid behind the paper's K_a figure,
 written once for SDD and inD. Every round is seeded (`eval.seed + round`), so a fixed checkpoint
-gives bit-identical metrics (on one CPU; on CUDA up to float rounding). Runs on the model's device;
+gives bit-identical metrics (on one CPU; on CUDA up to float rounding). The main setting's paths
+and goals of every round can be kept as scored (`kept`, a `pipeline.harness.predictions`
+`PredictionRounds`) for the stored-predictions file. Runs on the model's device;
 on CUDA the trajectory decoder runs in bfloat16 (goals, and so FDE, stay float32). The model's
 settings come from its checkpoint (`load_model`), never from params.yaml.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -27,6 +30,7 @@ from pipeline.data.ynet_data import (SceneWindows, group_by_scene, model_input, 
                                     window_inputs)
 from pipeline.device import CPU, conv_layout, generator, module_device
 from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, window_errors
+from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.runners.ynet_training import YnetSettings
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
@@ -96,6 +100,19 @@ def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettin
     return paths, goals
 
 
+def prediction_metadata(table: Path, options: SamplingOptions | None = None,
+                        checkpoint: Path | None = None) -> dict:
+    """What a stored long-term SDD Y-net predictions file records besides its seeds: the model, the
+    benchmark of the window table scored, the unit and split, and, where it was scored, the
+    sampling options (K = K_e x K_a) and the checkpoint."""
+    metadata = {"model": "ynet", "benchmark": long_term_benchmark(table), "unit": "px",
+                "split": "test", "window_table": str(table)}
+    if options is not None:
+        metadata.update(k=options.K, k_e=options.K_e, k_a=options.K_a,
+                        sampling=dataclasses.asdict(options), checkpoint=str(checkpoint))
+    return metadata
+
+
 def rounds_result(record: dict, options: SamplingOptions) -> dict:
     """The metrics layout of one sampling setting: a `rounds_record` with its K_e and K_a after the
     summary (where the metrics files have always had them)."""
@@ -104,11 +121,17 @@ def rounds_result(record: dict, options: SamplingOptions) -> dict:
             "per_round": record["per_round"]}
 
 
-def evaluate(model, scenes, settings, options, params, truth, rounds, desc) -> dict:
-    """`options` scored over seeded rounds (seed `params.seed + r`), in the `rounds_result` layout."""
+def evaluate(model, scenes, settings, options, params, truth, rounds, desc,
+             kept: PredictionRounds | None = None) -> dict:
+    """`options` scored over seeded rounds (seed `params.seed + r`), in the `rounds_result` layout.
+    `kept` (for the windows of `truth`, in its order) receives each round's paths and goals in
+    original pixels, exactly as scored. No weights: TTST's goals are k-means centres (goal 0 the
+    softargmax), and `ynet.sampling.predict` returns no cluster masses."""
     def score_round(seed: int):
         paths, goals = predict_scenes(model, scenes, settings, options, seed, params, len(truth),
                                       f"{desc} round {seed - params.seed + 1}/{rounds}")
+        if kept is not None:
+            kept.add(seed, paths, goals=goals)
         return window_errors(paths, truth, goals)
 
     return rounds_result(seeded_rounds(score_round, rounds, params.seed), options)
@@ -145,7 +168,8 @@ def qualitative(model: YNet, scene: SceneWindows, row: int, settings: YnetSettin
 def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
                         params: EvalParams, ttst: TtstParams, cws: CwsParams, truth: np.ndarray,
                         label: str = "", extras: bool = True,
-                        after_main: Callable[[dict], None] | None = None) -> dict:
+                        after_main: Callable[[dict], None] | None = None,
+                        kept: PredictionRounds | None = None) -> dict:
     """The long-term evaluation: {"main", "main_seconds"[, "ablation"][, "ka_grid"], "eval_seconds"}.
 
     main: TTST + CWS at (`k_e`, `k_a`) over `params.rounds` rounds. With `extras`: the ablation
@@ -154,12 +178,15 @@ def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetS
     `ka_grid_k_e` is empty). The grid cell of the main setting is the main result's first round,
     taken from it rather than sampled again (same seed, same options: the same numbers).
     `label` prefixes the progress bars; `after_main(partial result)` runs once the main result is in.
+    `kept` receives the main result's rounds (`evaluate`), nothing of the ablation or the grid.
     """
     start = time.perf_counter()
 
-    def run(k_e: int, k_a: int, use_ttst: bool, use_cws: bool, rounds: int, desc: str) -> dict:
+    def run(k_e: int, k_a: int, use_ttst: bool, use_cws: bool, rounds: int, desc: str,
+            keep: PredictionRounds | None = None) -> dict:
         options = sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
-        return evaluate(model, scenes, settings, options, params, truth, rounds, f"{label}{desc}")
+        return evaluate(model, scenes, settings, options, params, truth, rounds, f"{label}{desc}",
+                        keep)
 
     def grid_cell(k_e: int, k_a: int) -> dict:
         """One round; the main setting's cell is the main result's first round (same seed)."""
@@ -168,7 +195,7 @@ def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetS
                                  sampling_options(k_e, k_a, ttst, cws, True, True))
         return run(k_e, k_a, True, True, 1, f"K_e={k_e} K_a={k_a}")
 
-    result = {"main": run(params.k_e, params.k_a, True, True, params.rounds, "TTST+CWS")}
+    result = {"main": run(params.k_e, params.k_a, True, True, params.rounds, "TTST+CWS", kept)}
     result["main_seconds"] = time.perf_counter() - start
     if after_main is not None:
         after_main(result)

@@ -4,13 +4,15 @@ Loads the model (`constant_velocity` needs no checkpoint; `sgan` / `pecnet` take
 folder trained for this horizon; `rpecnet` the t_f = 5 PECNet's), draws K samples per window of the
 chosen split in `rounds` seeded rounds, and writes best-of-K ADE / FDE, independent and joint, as
 mean and spread over rounds, with the training facts the checkpoint records
-(`pipeline.harness.baseline_runs.score_split`). `evaluate_rpecnet` and
-`evaluate_constant_velocity` are this stage for one model. Params: `evaluate_baseline`,
-`windows.n_past`, `runtime.device`.
+(`pipeline.harness.baseline_runs.score_split`), and every round's predictions in original pixels
+(`pipeline.harness.predictions`; one folder per window table: `tf<H>/` for the horizon tables).
+`evaluate_rpecnet` and `evaluate_constant_velocity` are this stage for one model. Params:
+`evaluate_baseline`, `windows.n_past`, `runtime.device`.
 
     python -m pipeline.stages.evaluate_baseline --model pecnet --horizon 30 \
         --table data/horizon_windows/tf30.parquet --checkpoint-dir checkpoints/pecnet_tf30 \
-        --metrics metrics/baselines/pecnet_tf30.json
+        --metrics metrics/baselines/pecnet_tf30.json \
+        --predictions data/predictions/long_term/tf30/pecnet.parquet
 """
 
 from __future__ import annotations
@@ -31,11 +33,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoint-dir", type=Path, default=None,
                         help="trained model (rpecnet: the t_f = 5 PECNet); not for constant_velocity")
     parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
+    parser.add_argument("--predictions", type=Path, required=True,
+                        help="every round's test predictions written (parquet)")
     args = parser.parse_args(argv)
     needs_checkpoint = args.model != "constant_velocity"
     if needs_checkpoint != (args.checkpoint_dir is not None):
         parser.error(f"--checkpoint-dir is {'required' if needs_checkpoint else 'not taken'} for {args.model}")
-    score_to_file(args.model, args.table, args.horizon, args.checkpoint_dir, args.metrics, read_params())
+    score_to_file(args.model, args.table, args.horizon, args.checkpoint_dir, args.metrics,
+                  args.predictions, read_params())
 
 
 if __name__ == "__main__":

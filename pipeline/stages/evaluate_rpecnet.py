@@ -1,10 +1,11 @@
 """Stage `evaluate_rpecnet@<t_f>`: R-PECNet, the t_f = 5 PECNet rolled out on its own predictions to
 horizon t_f, scored with the shared metric (as `evaluate_baseline --model rpecnet`; layout of
-`metrics/baselines/<model>_tf<H>.json`). Params: `evaluate_baseline`, `windows.n_past`,
-`runtime.device`.
+`metrics/baselines/<model>_tf<H>.json`), every round's predictions written. Params:
+`evaluate_baseline`, `windows.n_past`, `runtime.device`.
 
     python -m pipeline.stages.evaluate_rpecnet --horizon 30 --table data/horizon_windows/tf30.parquet \
-        --checkpoint-dir checkpoints/pecnet_tf5 --metrics metrics/baselines/rpecnet_tf30.json
+        --checkpoint-dir checkpoints/pecnet_tf5 --metrics metrics/baselines/rpecnet_tf30.json \
+        --predictions data/predictions/long_term/tf30/rpecnet.parquet
 """
 
 from __future__ import annotations
@@ -24,8 +25,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--table", type=Path, required=True, help="window table (parquet)")
     parser.add_argument("--checkpoint-dir", type=Path, required=True, help="the t_f = 5 PECNet")
     parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
+    parser.add_argument("--predictions", type=Path, required=True,
+                        help="every round's test predictions written (parquet)")
     args = parser.parse_args(argv)
-    score_to_file(MODEL, args.table, args.horizon, args.checkpoint_dir, args.metrics, read_params())
+    score_to_file(MODEL, args.table, args.horizon, args.checkpoint_dir, args.metrics,
+                  args.predictions, read_params())
 
 
 if __name__ == "__main__":

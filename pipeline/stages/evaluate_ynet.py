@@ -2,14 +2,17 @@
 
 Separate from training, so `dvc exp run -S ttst.temperature=...` re-runs only this and the report.
 Writes ADE / FDE in original pixels as mean and spread over `eval.<profile>.rounds` rounds, the
-Table 3 ablation and the K_e x K_a grid (`pipeline.runners.ynet_scoring.evaluation_sequence`), and
-three windows' heatmaps for the qualitative figure. The model's settings come from its checkpoint.
-Params: `eval.<profile>`, `ttst`, `cws`, `profile`, `runtime.device` (and `windows.n_past`, passed
-as --n-past).
+Table 3 ablation and the K_e x K_a grid (`pipeline.runners.ynet_scoring.evaluation_sequence`),
+every round of the main setting's test predictions (paths and sampled goals in original pixels,
+`pipeline.harness.predictions`; in `release_tf30/`, as the window ids are the release table's),
+and three windows' heatmaps for the qualitative figure. The model's settings come from its
+checkpoint. Params: `eval.<profile>`, `ttst`, `cws`, `profile`, `runtime.device` (and
+`windows.n_past`, passed as --n-past).
 
     python -m pipeline.stages.evaluate_ynet --windows data/windows/release_tf30.parquet \
         --model data/ynet/model.pt --semantic-maps data/semantic_maps --sdd data/raw/sdd \
-        --n-past 5 --metrics metrics/ynet_eval.json --qualitative data/ynet_predictions/qualitative.npz
+        --n-past 5 --metrics metrics/ynet_eval.json --qualitative data/ynet_predictions/qualitative.npz \
+        --predictions data/predictions/long_term/release_tf30/ynet.parquet
 """
 
 from __future__ import annotations
@@ -24,8 +27,11 @@ from pipeline.config import (CwsParams, EvalParams, RuntimeParams, TtstParams, l
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
 from pipeline.device import describe, select_device
+from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
-from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring, qualitative_arrays
+from pipeline.runners.ynet_scoring import (evaluation_sequence, load_for_scoring,
+                                           prediction_metadata, qualitative_arrays,
+                                           sampling_options)
 from pipeline.runners.ynet_training import image_sizes
 
 
@@ -39,6 +45,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--n-past", type=int, default=5)
     parser.add_argument("--metrics", type=Path, required=True)
     parser.add_argument("--qualitative", type=Path, help="npz for the report's qualitative figure")
+    parser.add_argument("--predictions", type=Path, required=True,
+                        help="every round of the main setting's test predictions (parquet)")
     parser.add_argument("--main-only", action="store_true", help="skip the ablation and K_a grid")
     args = parser.parse_args(argv)
     params = read_params()
@@ -60,8 +68,11 @@ def main(argv: list[str] | None = None) -> None:
               f"  FDE {result['main']['fde']['mean']:.2f} ± {result['main']['fde']['std']:.2f}"
               f"  ({result['main_seconds']:.0f} s)")
 
+    kept = PredictionRounds(test.window_id)
     scores = evaluation_sequence(model, scenes, settings, eval_params, ttst, cws, test.future,
-                                 extras=not args.main_only, after_main=after_main)
+                                 extras=not args.main_only, after_main=after_main, kept=kept)
+    main_options = sampling_options(eval_params.k_e, eval_params.k_a, ttst, cws, True, True)
+    kept.write(args.predictions, prediction_metadata(args.windows, main_options, args.model))
     write_json({"profile": params["profile"], "t_f": int(test.future.shape[1]),
                 "n_windows": len(test), "rounds": eval_params.rounds, **scores}, args.metrics)
     if args.qualitative:

@@ -3,15 +3,17 @@
 Loads the best epoch of `train_ynet_horizon` (its settings from the checkpoint) and scores it on
 the horizon table's test windows: TTST + CWS, K_e from `eval.<profile>`, K_a = 1, over
 `ynet_horizons.<profile>.rounds` seeded rounds. Writes {t_f, profile, trained, n_windows, rounds,
-waypoints, main, eval_seconds, <training summary>}; a horizon that was not trained gets the
-training stage's not-run record. Params: `profile`, `runtime.device`, `ttst`, `cws`,
-`eval.<profile>` (k_e, seed, batch_size, chunk_size, bf16), `ynet_horizons.<profile>.rounds`,
-`windows.n_past`.
+waypoints, main, eval_seconds, <training summary>} and every round's test predictions (paths and
+sampled goals in original pixels, `pipeline.harness.predictions`); a horizon that was not trained
+gets the training stage's not-run record and an empty predictions file that gives the same reason.
+Params: `profile`, `runtime.device`, `ttst`, `cws`, `eval.<profile>` (k_e, seed, batch_size,
+chunk_size, bf16), `ynet_horizons.<profile>.rounds`, `windows.n_past`.
 
     python -m pipeline.stages.evaluate_ynet_horizon --horizon 10 \
         --table data/horizon_windows/tf10.parquet --semantic-maps data/semantic_maps \
         --sdd data/raw/sdd --checkpoint-dir checkpoints/ynet_tf10 \
-        --train-metrics metrics/ynet_horizons/train_tf10.json --metrics metrics/ynet_horizons/tf10.json
+        --train-metrics metrics/ynet_horizons/train_tf10.json --metrics metrics/ynet_horizons/tf10.json \
+        --predictions data/predictions/long_term/tf10/ynet.parquet
 """
 
 from __future__ import annotations
@@ -26,9 +28,11 @@ from pipeline.config import (CwsParams, EvalParams, HorizonParams, RuntimeParams
                              WindowParams, load_profile, load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.device import describe, select_device
+from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ynet_horizon import horizon_splits, training_summary
-from pipeline.runners.ynet_scoring import evaluate, load_for_scoring, sampling_options
+from pipeline.runners.ynet_scoring import (evaluate, load_for_scoring, prediction_metadata,
+                                           sampling_options)
 from pipeline.runners.ynet_training import image_sizes
 
 
@@ -42,9 +46,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoint-dir", type=Path, required=True, help="of train_ynet_horizon")
     parser.add_argument("--train-metrics", type=Path, required=True, help="of train_ynet_horizon")
     parser.add_argument("--metrics", type=Path, required=True)
+    parser.add_argument("--predictions", type=Path, required=True,
+                        help="every round's test predictions (parquet; empty if not trained)")
     args = parser.parse_args(argv)
     trained = json.loads(args.train_metrics.read_text())
     if not trained["trained"]:
+        write_no_predictions(args.predictions, prediction_metadata(args.table),
+                             trained["not_run_reason"])
         write_json(trained, args.metrics)
         print(f"evaluate_ynet_horizon: t_f = {args.horizon} s was not trained: "
               f"{trained['not_run_reason']}")
@@ -60,15 +68,19 @@ def main(argv: list[str] | None = None) -> None:
     test = horizon_splits(args.table, n_past, args.horizon)["test"]
     print(f"evaluate_ynet_horizon: scoring on {describe(device)}")
     semantic_maps = load_semantic_maps(args.semantic_maps)
-    model, settings, scenes = load_for_scoring(args.checkpoint_dir / "best.pt", test, semantic_maps,
+    checkpoint = args.checkpoint_dir / "best.pt"
+    model, settings, scenes = load_for_scoring(checkpoint, test, semantic_maps,
                                                image_sizes(args.sdd, set(test.scene_id)), device)
     options = sampling_options(eval_params.k_e, 1, ttst, cws, True, True)
     start = time.perf_counter()
+    kept = PredictionRounds(test.window_id)
     scores = evaluate(model, scenes, settings, options, eval_params, test.future, rounds,
-                      f"t_f={args.horizon}")
+                      f"t_f={args.horizon}", kept)
+    seconds = time.perf_counter() - start
+    kept.write(args.predictions, prediction_metadata(args.table, options, checkpoint))
     write_json({"t_f": args.horizon, "profile": profile, "trained": True, "n_windows": len(test),
                 "rounds": rounds, "waypoints": settings.waypoints, "main": scores,
-                "eval_seconds": time.perf_counter() - start, **training_summary(trained)},
+                "eval_seconds": seconds, **training_summary(trained)},
                args.metrics)
     print(f"evaluate_ynet_horizon t_f = {args.horizon}: ADE {scores['ade']['mean']:.2f}  "
           f"FDE {scores['fde']['mean']:.2f} over {len(test)} test windows")
