@@ -88,6 +88,14 @@ class Preemption:
 NEVER = Preemption()  # a Preemption outside any `with`: no handlers, no budget, never stops
 
 
+def module_name(function: Callable[..., None]) -> str:
+    """The dotted module a function was defined in, also when that module runs as `python -m`
+    (where `__module__` is only "__main__" and the real name sits in the module's spec)."""
+    module = sys.modules.get(function.__module__)
+    spec = getattr(module, "__spec__", None)
+    return spec.name if function.__module__ == "__main__" and spec is not None else function.__module__
+
+
 def exit_when_stopped(main: Callable[..., None]) -> Callable[..., None]:
     """Decorate a stage's `main`: a StopRequested becomes its message and exit code."""
 
@@ -96,7 +104,7 @@ def exit_when_stopped(main: Callable[..., None]) -> Callable[..., None]:
         try:
             return main(*args, **kwargs)
         except StopRequested as stop:
-            print(f"{main.__module__}: stopped early, {stop.reason}", file=sys.stderr, flush=True)
+            print(f"{module_name(main)}: stopped early, {stop.reason}", file=sys.stderr, flush=True)
             raise SystemExit(stop.exit_code) from None
 
     return wrapper

@@ -2,10 +2,15 @@
 
 import os
 import signal
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
 from pipeline.preemption import EXIT_BUDGET, Preemption, StopRequested, exit_when_stopped
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 def test_sigterm_sets_the_reason_and_the_handlers_are_restored():
@@ -53,3 +58,23 @@ def test_exit_when_stopped_turns_the_stop_into_the_exit_code(capsys):
         main()
     assert exited.value.code == 143
     assert "checkpoint saved at epoch 3" in capsys.readouterr().err
+
+
+def test_a_stage_run_with_python_m_names_itself_when_stopped(tmp_path):
+    """`python -m pkg.stage` runs the module as "__main__": the message names pkg.stage instead."""
+    package = tmp_path / "pkg"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "stage.py").write_text(
+        "from pipeline.preemption import StopRequested, exit_when_stopped\n"
+        "@exit_when_stopped\n"
+        "def main():\n"
+        "    raise StopRequested('budget spent', 75)\n"
+        "if __name__ == '__main__':\n"
+        "    main()\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(REPO)])}
+    run = subprocess.run([sys.executable, "-m", "pkg.stage"], cwd=tmp_path, env=env,
+                         capture_output=True, text=True)
+    assert run.returncode == 75
+    assert "pkg.stage: stopped early, budget spent" in run.stderr
+    assert "__main__" not in run.stderr
