@@ -44,7 +44,7 @@ from pipeline.data.labels import read_index, read_label_map
 from pipeline.data.window_table import conform
 from pipeline.harness import scoring
 from pipeline.harness.predictions import (NOT_RUN, PredictionArrays, long_term_benchmark,
-                                          read_predictions, round_arrays)
+                                          read_prediction_rounds)
 from pipeline.io import IntermediateError
 
 UNIT = "px"  # the long-term SDD benchmark's unit: original image pixels
@@ -261,14 +261,13 @@ def score_file(path: Path, truth: WindowTruth, maps: SceneMaps, params: ScorePre
     module docstring), or {"file", "model", "not_run_reason"} for a file with no predictions."""
     path = Path(path)
     try:
-        table, metadata = read_predictions(path)
+        by_round, metadata = read_prediction_rounds(path)
     except (OSError, ValueError) as e:  # pyarrow's errors are OSError or ValueError
         raise IntermediateError(e if str(e).startswith(str(path)) else f"{path}: {e}") from e
     check_file(path, metadata, truth.path)
     head = {"file": path.as_posix(), "model": metadata["model"]}
     if NOT_RUN in metadata:
         return {**head, NOT_RUN: metadata[NOT_RUN]}
-    by_round = round_arrays(table)
     first = by_round[0]
     n, k, t, _ = first.samples.shape
     windows = truth.take(first.window_ids, path)
