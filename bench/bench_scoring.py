@@ -138,7 +138,7 @@ def main() -> None:
             print(f"  {name:<34}{seconds:8.3f}")
         print(f"  {'(kde_nll, one scipy KDE per step)':<34}{scipy_kde_seconds(case):8.3f}"
               "  extrapolated from 1,000 steps")
-        per_window = scoring.trajectory_scores(case.pred, case.truth, case.miss)
+        per_window, _ = scoring.trajectory_scores(case.pred, case.truth, case.miss)
         seconds, _ = timed(lambda: scoring.aggregate(per_window, case.scene), args.repeats)
         total += seconds
         print(f"  {'aggregate (' + str(len(per_window)) + ' metrics)':<34}{seconds:8.3f}")

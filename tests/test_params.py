@@ -6,13 +6,14 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from pipeline.config import CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
+from pipeline.config import CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
 from pipeline.config import load_profile
 from pipeline.runners.ynet_training import YnetSettings
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,
-            "semantic": SemanticParams, "data": DataParams}
+            "semantic": SemanticParams, "data": DataParams,
+            "score_predictions": ScorePredictionsParams}
 
 
 def plain(value):
@@ -87,3 +88,15 @@ def test_post_init_checks_surface_as_params_errors():
         from_dict(WindowParams, {"raw_fps": 30, "target_fps": 7}, "windows")
     with pytest.raises(ParamsError, match="not a folder path or an http"):
         from_dict(FetchParams, {"locations": ["ftp://x"]}, "fetch")
+
+
+@pytest.mark.parametrize("values, match", [
+    ({"miss_threshold_m": 0.0}, "miss_threshold_m must be a positive distance"),
+    ({"collision_threshold_m": -0.2}, "collision_threshold_m must be a positive distance"),
+    ({"log_pdf_floor": 5.0}, "log_pdf_floor must be a finite negative"),
+    ({"forbidden_classes": []}, "forbidden_classes must be a non-empty list"),
+    ({"forbidden_classes": ["tree", "tree"]}, "distinct class names"),
+])
+def test_score_predictions_thresholds_are_checked(values, match):
+    with pytest.raises(ParamsError, match=match):
+        from_dict(ScorePredictionsParams, values, "score_predictions")

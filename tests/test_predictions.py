@@ -9,10 +9,10 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from pipeline.harness.predictions import (COLUMNS, PredictionRounds, concat_rounds,
-                                          predictions_table, prediction_arrays, read_predictions,
-                                          round_arrays, rounds, write_no_predictions,
-                                          write_predictions)
+from pipeline.harness.predictions import (COLUMNS, PredictionRounds, concat_rounds, in_order,
+                                          predictions_table, prediction_arrays,
+                                          read_prediction_rounds, read_predictions, round_arrays,
+                                          rounds, write_no_predictions, write_predictions)
 
 METADATA = {"model": "ynet", "benchmark": "sdd_long_term_tf30", "unit": "px", "seeds": [0]}
 
@@ -228,6 +228,11 @@ def test_goals_round_trip_through_parquet(tmp_path):
         np.testing.assert_array_equal(got.samples, samples[order])  # float64: exact
         np.testing.assert_array_equal(got.goals, goals[order])
         np.testing.assert_array_equal(got.weights, weights[order])
+    by_round, again = read_prediction_rounds(path)  # the same, as arrays, checked once
+    assert again == metadata and list(by_round) == [0, 1, 2]
+    for r, arrays in by_round.items():
+        for got, expected in zip(arrays, prediction_arrays(back, round=r)):
+            np.testing.assert_array_equal(got, expected)
 
 
 def test_prediction_rounds_keep_every_round_with_its_seed(tmp_path):
@@ -295,6 +300,7 @@ def test_a_model_not_run_gets_an_empty_file_that_says_why(tmp_path):
     table, metadata = read_predictions(path)
     assert len(table) == 0 and list(table.columns) == list(COLUMNS)
     assert metadata["not_run_reason"] == "not trained at t_f = 5 s" and metadata["seeds"] == []
+    assert read_prediction_rounds(path) == ({}, metadata)
     with pytest.raises(ValueError, match="predictions table is empty"):
         prediction_arrays(table)
     empty = tmp_path / "empty.parquet"  # without a reason an empty table is not a predictions file
@@ -305,3 +311,17 @@ def test_a_model_not_run_gets_an_empty_file_that_says_why(tmp_path):
     pq.write_table(arrow.replace_schema_metadata({b"predictions": json.dumps(stored).encode()}), empty)
     with pytest.raises(ValueError, match="empty"):
         read_predictions(empty)
+
+
+def test_rows_in_order_are_recognised():
+    first = np.array([0, 0, 1, 1])
+    assert in_order([first, np.array([5, 7, 2, 2])])  # ties in both keys are in order
+    assert not in_order([first, np.array([7, 5, 2, 3])])  # 7 before 5 within first == 0
+    assert in_order([first, np.array([5, 7, 1, 2])]) and in_order([np.array([3])])
+    ids, samples, _ = example()  # ids 7, 3, 11: the table as built is out of order, the arrays not
+    table = predictions_table(ids, samples)
+    keys = [table[c].to_numpy() for c in ("round", "window_id", "sample", "step")]
+    assert not in_order(keys)
+    ordered = table.sort_values(["round", "window_id", "sample", "step"])
+    for got, expected in zip(round_arrays(ordered)[0], round_arrays(table)[0]):
+        np.testing.assert_array_equal(got, expected)

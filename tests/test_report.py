@@ -87,9 +87,48 @@ def sdd_sources(origins: dict[str, str], images: dict[str, dict] | None = None,
             "reference_images": images or {}, "totals": {"videos": len(videos)}}
 
 
+BEYOND_MODELS = ("pecnet", "rpecnet", "sgan", "constant_velocity")  # on every horizon table
+
+
+def beyond_model(model: str, ade: float, rounds: int = 3) -> dict:
+    """One model's record in stage score_predictions' layout (pipeline.harness.stored_scores)."""
+    values = {"ade": ade, "fde": 2 * ade, "ade_joint": ade, "fde_joint": 2 * ade + 8.5,
+              "ade_best_endpoint": ade + 4.25, "miss_rate": 0.375, "kde_nll": 11.5 + ade / 100,
+              "kde_degenerate_share": 0.0, "off_limits_share": 0.1875, "collision_rate": 0.0125}
+    std = 0.5 if rounds > 1 else 0.0
+    return {"file": f"data/predictions/long_term/x/{model}.parquet", "model": model,
+            "rounds": rounds, "k": 20, "t": 30, "n_windows": 382, "n_scenes": 11,
+            "metrics": {k: {"mean": v, "std": std, "per_round": [v] * rounds}
+                        for k, v in values.items()},
+            "ground_truth": {"off_limits_share": 0.125, "collision_rate": 0.0,
+                             "copresent_share": 0.5}}
+
+
+def beyond_metrics() -> dict:
+    """metrics/beyond/long_term.json: the baselines on every horizon table, Y-net at 10 s (one
+    round), not run at the other horizons (none at 30 s: its main setting is the release's)."""
+    tables = {}
+    for h in HORIZONS:
+        models = {m: beyond_model(m, (2.25 + j) * h) for j, m in enumerate(BEYOND_MODELS)}
+        if h == 10:
+            models["ynet"] = beyond_model("ynet", 1.75 * h, rounds=1)
+        elif h != 30:
+            models["ynet"] = {"file": f"data/predictions/long_term/tf{h}/ynet.parquet",
+                              "model": "ynet",
+                              "not_run_reason": f"Y-net is not trained at t_f = {h} s here"}
+        tables[f"tf{h}"] = {"window_table": f"data/horizon_windows/tf{h}.parquet", "t_f": h,
+                            "models": models}
+    tables["release_tf30"] = {"window_table": "data/windows/release_tf30.parquet", "t_f": 30,
+                              "models": {"ynet": beyond_model("ynet", 50.5)}}
+    return {"unit": "px", "tables": tables, "score_seconds": 6.5,
+            "thresholds": {"miss_threshold_m": 2.0, "collision_threshold_m": 0.2,
+                           "log_pdf_floor": -20.0, "forbidden_classes": ["structure", "tree"]}}
+
+
 def model_metrics() -> dict[str, object]:
     """What the training / evaluation stages will write."""
     files: dict[str, object] = {
+        "beyond/long_term.json": beyond_metrics(),
         "ynet_eval.json": {
             "profile": "cpu", "t_f": 30, "n_windows": 382, "rounds": 3,
             "main": four(49.5, 70.25),
@@ -821,3 +860,49 @@ def test_metrics_of_another_profile_or_k_are_shown_but_not_compared(project):
     html = run_report(project).read_text()  # the lock of the fixture says profile cpu
     assert "measured with profile = paper; this cell is for profile = cpu" in html
     assert 'data-kind="mismatch"' in html
+
+
+def beyond_rows(html: str) -> dict[str, list[str]]:
+    """{row label: its values (ours-value spans) or its not-scored reason} of the beyond table."""
+    table = html[html.index('data-table="beyond"'):]
+    table = table[:table.index("</table>")]
+    rows = {}
+    for label, body in re.findall(r"<tr><th>([^<]+)</th>(.*?)</tr>", table, flags=re.S):
+        values = re.findall(r'class="ours-value">([^<]+)<', body)
+        rows[label] = values or [" ".join(re.sub(r"<[^>]+>", " ", body).split())]
+    return rows
+
+
+def test_beyond_section_renders_from_the_score_predictions_file(project):
+    files = data_metrics() | model_metrics()
+    files["beyond/long_term.json"]["tables"]["tf30"]["models"]["sgan"] = {
+        "file": "x.parquet", "model": "sgan", "not_run_reason": "S-GAN was not trained here"}
+    write_metrics(project / "metrics", files)
+    html = run_report(project).read_text()
+    assert_well_formed(html)
+    rows = beyond_rows(html)
+    # t_f = 30: the horizon table's models in the horizon figure's order, then the release row.
+    assert list(rows) == ["model", "PECNet", "R-PECNet", "S-GAN", "Constant velocity",
+                          "Y-net, release_tf30 windows"]
+    # PECNet at 30 s: ADE 2.25 * 30 = 67.5; FDE 135, joint 143.5, best endpoint 71.75, miss 0.375,
+    # NLL 11.5 + 0.675, off limits 0.1875 (truth 0.125), collisions 0.0125 (truth 0).
+    assert rows["PECNet"] == ["67.50", "135.00", "143.50", "71.75", "0.375", "12.18", "0.188",
+                              "0.125", "0.013", "0.000"]
+    assert rows["Y-net, release_tf30 windows"][:2] == ["50.50", "101.00"]
+    assert rows["S-GAN"] == ["not scored: S-GAN was not trained here"]
+    section = html[html.index('<h2 id="beyond">'):html.index('<h2 id="data">')]
+    assert "tf15/ynet: Y-net is not trained at t_f = 15 s here" in section
+    assert "Miss rate</b> at 2.0 m" in section and "closer than 0.2 m" in section
+    assert 'src="figures/report/beyond_horizons.png"' in section
+    assert (project / "reports/figures/report/beyond_horizons.png").stat().st_size > 10_000
+
+
+def test_beyond_section_changes_no_paper_table_and_says_when_it_is_missing(project):
+    files = data_metrics() | model_metrics()
+    write_metrics(project / "metrics", files)
+    with_it = comparison_cells(parse(run_report(project).read_text()))
+    (project / "metrics/beyond/long_term.json").unlink()
+    html = run_report(project).read_text()
+    assert comparison_cells(parse(html)) == with_it  # every cell of the paper's tables as it was
+    assert f"stage not yet run: {project / 'metrics'}/beyond/long_term.json missing" in html
+    assert not (project / "reports/figures/report/beyond_horizons.png").exists()

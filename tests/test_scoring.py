@@ -83,6 +83,26 @@ def test_miss_is_strictly_beyond_the_threshold():
         miss(PRED, TRUTH, -1.0)
 
 
+def test_miss_takes_one_threshold_per_window():
+    # min-FDE 3 and 0: window 0 misses at 2.5 (not at 3), window 1 hits at any threshold >= 0.
+    np.testing.assert_array_equal(miss(PRED, TRUTH, np.array([2.5, 0.0])), [True, False])
+    np.testing.assert_array_equal(miss(PRED, TRUTH, np.array([3.0, 0.0])), [False, False])
+    with pytest.raises(ValueError, match=r"threshold must be \(2,\), got shape \(3,\)"):
+        miss(PRED, TRUTH, np.ones(3))
+    with pytest.raises(ValueError, match="threshold"):
+        miss(PRED, TRUTH, np.array([1.0, np.nan]))
+
+
+def test_goals_are_the_endpoints_of_best_endpoint_and_miss():
+    # Goals: window 0 sample 0 exact, sample 1 5 away -> sample 0 (ADE 2), min-FDE 0;
+    # window 1 sample 0 5 away, sample 1 (5, 0) away: a tie -> sample 0 (ADE 7.5), min-FDE 5.
+    goals = np.array([[[2.0, 0.0], [5.0, 4.0]], [[3.0, 4.0], [9.0, 4.0]]])
+    np.testing.assert_array_equal(best_endpoint_ade(PRED, TRUTH, goals), [2.0, 7.5])
+    np.testing.assert_array_equal(miss(PRED, TRUTH, 4.0, goals), [False, True])
+    with pytest.raises(ValueError, match=r"goals must be \(N, K, 2\) = \(2, 2, 2\)"):
+        best_endpoint_ade(PRED, TRUTH, goals[:, :1])
+
+
 @pytest.mark.parametrize("metric", [min_ade_fde, best_endpoint_ade, kde_nll,
                                     lambda p, t: miss(p, t, 1.0)])
 def test_bad_shapes_are_named(metric):
@@ -435,11 +455,20 @@ def test_aggregate_names_a_bad_metric_shape():
 def test_trajectory_scores_collect_the_path_metrics():
     pred, truth, _ = random_case(n=6, k=5, t=3, seed=5)
     pred[0, :, 1] = pred[0, 0, 1]  # one degenerate step of three in window 0
-    got = trajectory_scores(pred, truth, miss_threshold=5.0)
+    got, nll = trajectory_scores(pred, truth, miss_threshold=5.0)
     assert set(got) == {"ade", "fde", "ade_joint", "fde_joint", "ade_best_endpoint", "miss",
                         "kde_nll", "kde_degenerate"}
     assert all(v.shape == (6,) for v in got.values())
-    np.testing.assert_array_equal(got["kde_nll"], kde_nll(pred, truth).mean(axis=1))
+    np.testing.assert_array_equal(nll, kde_nll(pred, truth))  # (N, T)
+    np.testing.assert_array_equal(got["kde_nll"], nll.mean(axis=1))
     np.testing.assert_array_equal(got["kde_degenerate"], [1 / 3, 0, 0, 0, 0, 0])
     np.testing.assert_array_equal(got["miss"], miss(pred, truth, 5.0))
     assert (got["ade_best_endpoint"] >= got["ade"]).all()
+
+
+def test_trajectory_scores_take_endpoints_from_goals():
+    goals = np.array([[[2.0, 0.0], [5.0, 4.0]], [[3.0, 4.0], [9.0, 4.0]]])  # FDE (0, 5), (5, 5)
+    got, _ = trajectory_scores(PRED, TRUTH, miss_threshold=4.0, goals=goals)
+    np.testing.assert_array_equal(got["fde"], [0.0, 5.0])
+    np.testing.assert_array_equal(got["ade_best_endpoint"], [2.0, 7.5])
+    np.testing.assert_array_equal(got["miss"], [False, True])

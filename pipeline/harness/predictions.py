@@ -201,6 +201,17 @@ def _same_windows(r: int, got: PredictionArrays, r0: int, first: PredictionArray
                          f"round {r0} K = {k0} and T = {t0}")
 
 
+def in_order(keys: Sequence[np.ndarray]) -> bool:
+    """Whether rows given as key columns (each (rows,)) are sorted by the first key, then the
+    second, ... (ties allowed): as `np.lexsort(keys[::-1])` would leave them."""
+    later = np.zeros(max(len(keys[0]) - 1, 0), dtype=bool)  # a row before its predecessor
+    tied = ~later  # equal to its predecessor in every key so far
+    for key in keys:
+        later |= tied & (key[1:] < key[:-1])
+        tied &= key[1:] == key[:-1]
+    return not later.any()
+
+
 def round_arrays(table: pd.DataFrame) -> dict[int, PredictionArrays]:
     """Every round of a predictions table as arrays, {round: `PredictionArrays`} (windows in
     ascending window_id order: join with the window table by id, never by position), the whole
@@ -227,9 +238,10 @@ def round_arrays(table: pd.DataFrame) -> dict[int, PredictionArrays]:
         raise ValueError(f"{int(bad.sum())} non-finite position(s), first at {_first(bad, *keys)}")
     has_goals = not np.isnan(goal).any()
 
-    order = np.lexsort((step, sample, window, rnd))
-    rnd, window, sample, step = keys = tuple(c[order] for c in keys)
-    xy, weight, goal = xy[order], weight[order], goal[order]
+    if not in_order(keys):  # a written file is in order already: no sort, no copies
+        order = np.lexsort((step, sample, window, rnd))
+        rnd, window, sample, step = keys = tuple(c[order] for c in keys)
+        xy, weight, goal = xy[order], weight[order], goal[order]
     same = ((rnd[1:] == rnd[:-1]) & (window[1:] == window[:-1]) & (sample[1:] == sample[:-1])
             & (step[1:] == step[:-1]))
     if same.any():
@@ -286,14 +298,18 @@ def _write(table: pd.DataFrame, path: Path, metadata: dict[str, Any]) -> None:
     write_with(Path(path), lambda tmp: pq.write_table(arrow, tmp))
 
 
-def _check_file_rounds(table: pd.DataFrame, metadata: dict[str, Any]) -> None:
-    """The table checked, holding rounds 0 .. R-1, and the metadata one seed per round."""
-    held = list(round_arrays(table))
+def _check_file_rounds(table: pd.DataFrame, metadata: dict[str, Any]
+                       ) -> dict[int, PredictionArrays]:
+    """The table checked, holding rounds 0 .. R-1, and the metadata one seed per round: its
+    `round_arrays`."""
+    by_round = round_arrays(table)
+    held = list(by_round)
     check_all_rounds(held)
     seeds = metadata["seeds"]
     if not isinstance(seeds, list) or len(seeds) != len(held):
         raise ValueError(f"metadata seeds must list one seed per round: {len(held)} round(s), "
                          f"seeds {seeds!r}")
+    return by_round
 
 
 def write_predictions(table: pd.DataFrame, path: Path, metadata: dict[str, Any]) -> None:
@@ -314,9 +330,9 @@ def write_no_predictions(path: Path, metadata: dict[str, Any], reason: str) -> N
            {**metadata, "seeds": [], NOT_RUN: reason})
 
 
-def read_predictions(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """(table, metadata) of a file `write_predictions` or `write_no_predictions` wrote; the table is
-    checked on reading (an empty one only where the metadata has a `not_run_reason`)."""
+def _read_checked(path: Path) -> tuple[pd.DataFrame, dict[int, PredictionArrays], dict[str, Any]]:
+    """(table, its `round_arrays`, metadata) of a predictions file, the table checked once (an
+    empty one, with no rounds, only where the metadata has a `not_run_reason`)."""
     arrow = pq.read_table(path)
     stored = (arrow.schema.metadata or {}).get(METADATA_KEY)
     if stored is None:
@@ -324,9 +340,23 @@ def read_predictions(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     table, metadata = arrow.to_pandas(), json.loads(stored)
     if NOT_RUN in metadata and len(table) == 0:
         check_columns(table)
-        return table, metadata
-    _check_file_rounds(table, metadata)
+        return table, {}, metadata
+    return table, _check_file_rounds(table, metadata), metadata
+
+
+def read_predictions(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """(table, metadata) of a file `write_predictions` or `write_no_predictions` wrote; the table is
+    checked on reading (an empty one only where the metadata has a `not_run_reason`)."""
+    table, _, metadata = _read_checked(path)
     return table, metadata
+
+
+def read_prediction_rounds(path: Path) -> tuple[dict[int, PredictionArrays], dict[str, Any]]:
+    """({round: `PredictionArrays`}, metadata) of a predictions file, checked as `read_predictions`
+    checks it, once (what scoring every stored file reads); {} for a file that says why nothing
+    was predicted (`not_run_reason`)."""
+    _, by_round, metadata = _read_checked(path)
+    return by_round, metadata
 
 
 def long_term_benchmark(table: Path) -> str:

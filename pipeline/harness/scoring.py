@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.harness.metrics import as_numpy, step_errors, window_errors
+from pipeline.harness.metrics import as_numpy, goal_errors, step_errors, window_errors
 
 # ---------------------------------------------------------------------------------------------
 # Shapes
@@ -70,26 +70,45 @@ def min_ade_fde(pred: Any, truth: Any, goals: Any | None = None) -> dict[str, np
             "fde_joint": errors.fde_joint}
 
 
-def best_endpoint_ade(pred: Any, truth: Any) -> np.ndarray:
-    """(N,) ADE of the sample whose final point is closest to the true final point, ties to the
+def endpoint_errors(pred: np.ndarray, truth: np.ndarray, goals: Any | None) -> np.ndarray:
+    """(N, K) distance of each sample's endpoint to the true final point: the path's last point,
+    or the sample's separately predicted goal (N, K, 2) where given, as `min_ade_fde`'s FDE."""
+    if goals is None:
+        return step_errors(pred[:, :, -1:], truth[:, -1:])[..., 0]
+    errors = goal_errors(goals, truth)  # (N, K)
+    if errors.shape != pred.shape[:2]:
+        raise ValueError(f"goals must be (N, K, 2) = {(*pred.shape[:2], 2)}, got shape "
+                         f"{np.shape(goals)}")
+    return errors
+
+
+def best_endpoint_ade(pred: Any, truth: Any, goals: Any | None = None) -> np.ndarray:
+    """(N,) ADE of the sample whose endpoint is closest to the true final point, ties to the
     lowest sample index: PECNet's protocol, which picks the best of K destinations and scores the
-    path to it. At least min-ADE; equal to it where one sample is best at both."""
+    path to it. At least min-ADE; equal to it where one sample is best at both. `goals` (N, K, 2):
+    the endpoint is the sampled goal (Y-net samples a goal, then a path to it, as PECNet samples a
+    destination), so the endpoint is the one min-FDE is measured on."""
     pred, truth = check_paths(pred, truth)
-    per_step = step_errors(pred, truth)  # (N, K, T)
-    best = per_step[..., -1].argmin(axis=1)  # (N,) first index on ties
-    return per_step.mean(axis=-1)[np.arange(len(best)), best]
+    best = endpoint_errors(pred, truth, goals).argmin(axis=1)  # (N,) first index on ties
+    ade = step_errors(pred, truth).mean(axis=-1)  # (N, K)
+    return ade[np.arange(len(best)), best]
 
 
-def miss(pred: Any, truth: Any, threshold: float) -> np.ndarray:
-    """(N,) bool: min-FDE > `threshold` (strictly: an endpoint exactly at the threshold is a hit).
+def miss(pred: Any, truth: Any, threshold: Any, goals: Any | None = None) -> np.ndarray:
+    """(N,) bool: min-FDE > `threshold` (strictly: an endpoint exactly at the threshold is a hit),
+    min-FDE on `goals` (N, K, 2) where given, as `min_ade_fde`'s.
 
     `threshold` is in the benchmark's unit, as pred and truth are: metres for ETH/UCY (2 m is the
-    Argoverse-style miss rate's), original image pixels for SDD. The caller states it; this module
-    has no default because no one value fits both units."""
-    if not np.isfinite(threshold) or threshold < 0:
-        raise ValueError(f"threshold must be a finite distance >= 0, got {threshold}")
+    Argoverse-style miss rate's), original image pixels for SDD; one distance, or one per window
+    (N,) (a distance in metres converted with each scene's own scale). The caller states it; this
+    module has no default because no one value fits both units."""
     pred, truth = check_paths(pred, truth)
-    return window_errors(pred, truth).fde > threshold
+    limit = np.asarray(threshold, dtype=np.float64)  # () or (N,)
+    if limit.ndim:
+        check_per_window(limit, len(pred), "threshold")
+    if not np.isfinite(limit).all() or (limit < 0).any():
+        raise ValueError(f"threshold must be a finite distance >= 0, got {threshold}")
+    return endpoint_errors(pred, truth, goals).min(axis=1) > limit
 
 
 # ---------------------------------------------------------------------------------------------
@@ -422,13 +441,17 @@ def aggregate(per_window: dict[str, Any], scenes: Any) -> dict[str, Any]:
             "scene_mean": scene_mean, "per_scene": per_scene}
 
 
-def trajectory_scores(pred: Any, truth: Any, miss_threshold: float, *, weights: Any | None = None,
-                      log_pdf_floor: float = LOG_PDF_FLOOR) -> dict[str, np.ndarray]:
-    """Every per-window metric that needs only the paths, (N,) each: `min_ade_fde`'s four,
-    'ade_best_endpoint', 'miss' (at `miss_threshold`), 'kde_nll' (mean over steps) and
-    'kde_degenerate' (share of steps whose KDE is degenerate, scored at the floor)."""
+def trajectory_scores(pred: Any, truth: Any, miss_threshold: Any, *, goals: Any | None = None,
+                      weights: Any | None = None, log_pdf_floor: float = LOG_PDF_FLOOR
+                      ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Every metric that needs only the paths: per window (N,) each, `min_ade_fde`'s four,
+    'ade_best_endpoint', 'miss' (at `miss_threshold`, one or (N,)), 'kde_nll' (mean over steps) and
+    'kde_degenerate' (share of steps whose KDE is degenerate, scored at the floor); and the NLL per
+    window and step (N, T). `goals` (N, K, 2) are the endpoints of FDE, best endpoint and miss."""
     log_pdf, degenerate = kde_log_pdf(pred, truth, weights)  # (N, T) each
     nll = clipped_nll(log_pdf, degenerate, log_pdf_floor)  # (N, T)
-    return {**min_ade_fde(pred, truth), "ade_best_endpoint": best_endpoint_ade(pred, truth),
-            "miss": miss(pred, truth, miss_threshold), "kde_nll": nll.mean(axis=1),
-            "kde_degenerate": degenerate.mean(axis=1)}
+    per_window = {**min_ade_fde(pred, truth, goals),
+                  "ade_best_endpoint": best_endpoint_ade(pred, truth, goals),
+                  "miss": miss(pred, truth, miss_threshold, goals), "kde_nll": nll.mean(axis=1),
+                  "kde_degenerate": degenerate.mean(axis=1)}
+    return per_window, nll

@@ -6,7 +6,8 @@ explained absence, never a blank or a made-up number), the paper's values
 
 - `reports/index.html` (jinja2, no scripts, no network): Tables 1-4 cell by cell (paper, ours as
   mean and spread over evaluation rounds, relative difference coloured by size), the horizon and
-  K_a figures, the qualitative figure, the data audit and counts, segmentation scores, provenance;
+  K_a figures, the qualitative figure, "Beyond the paper's tables" (`pipeline.report.beyond`: the
+  metrics of stage `score_predictions`), the data audit and counts, segmentation scores, provenance;
 - its figures as PNG files (matplotlib, Agg) in `reports/figures/report/`;
 - the figure series as JSON for `dvc plots` in `reports/plots/`.
 
@@ -23,6 +24,9 @@ results is shown as its reason):
 - `short_term/sdd.json`: {"rounds", "models": {<model>: {"k20"|"k5": {"ade": {"mean", "std"}, "fde"}}}}
 - `short_term/ethucy_<scene>.json`: {"rounds", "models": {<model>: {"ade": {...}, "fde": {...}}}}
 - `ind_benchmark.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
+- `beyond/long_term.json`: {"thresholds", "tables": {<table>: {"t_f", "models": {<model>: {"rounds",
+  "metrics": {<metric>: {"mean", "std"}}, "ground_truth": {<metric>: value}} or {"not_run_reason"}}}}}
+  (`pipeline.harness.stored_scores`)
 - `segmentation.json`: {"miou", "iou": {class: iou}}; the data files `windows.json`,
   `data_audit.json`, `horizon_windows.json`, `chain_bias.json`, and `sdd_sources.json` (stage
   `tracks`: {"copy": {"provided", "path"}, "videos": {<video>: {"origin", "file", "sha256",
@@ -55,6 +59,7 @@ import numpy as np
 import yaml
 
 from pipeline.config import ReportParams
+from pipeline.report.beyond import beyond_section
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)
 from pipeline.io import atomic_dir, write_text
@@ -1090,6 +1095,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         "summaries": [summarize(t) for t in tables],
         "tables": tables,
         **figures,
+        "beyond": beyond_section(store, LONG_TERM_TF, HORIZON_MODELS, MODEL_COLOURS, slot),
         "data": data_section(store, inputs.scene_counts),
         "n_test_videos": len(TEST_VIDEOS),
         "segmentation": {**segmentation_scores(store),
