@@ -38,7 +38,9 @@ from pipeline.data.labels import MaskError
 from pipeline.config import CwsParams, DataParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams, IndParams, ParamsError, SegmentationParams, TrainBaselineParams, TtstParams, WindowParams, from_dict, load_profile, load_section, read_params
 from pipeline.runners.segmentation import export_model
 from pipeline.runners.ynet_training import YnetSettings
-from pipeline.data.window_table import COLUMNS
+from pipeline.data.window_table import COLUMNS, to_arrays
+from pipeline.harness.predictions import prediction_arrays, read_predictions
+from pipeline.harness.scoring import min_ade_fde
 from ynet.segmentation import UNet, UNetConfig
 
 REPO = Path(__file__).resolve().parents[1]
@@ -365,18 +367,23 @@ def write_tiny_unet(path: Path) -> Path:
 
 def test_benchmark_not_provided_is_a_record(tmp_path):
     ind.write(ind.build(IndParams(), WINDOWS), tmp_path / "ind", tmp_path / "w.json")
-    result = ind_benchmark.run_benchmark(tmp_path / "ind", tmp_path / "absent.pt", tmp_path / "ckpt",
-                                         tiny_settings())
+    result, predictions = ind_benchmark.run_benchmark(tmp_path / "ind", tmp_path / "absent.pt",
+                                                      tmp_path / "ckpt", tiny_settings())
     assert result == {"provided": False, "status": "not provided", "reason": ind.NOT_PROVIDED_REASON}
-    assert (tmp_path / "ckpt").is_dir()
+    assert (tmp_path / "ckpt").is_dir() and predictions == {}
+    ind_benchmark.write_predictions(tmp_path / "stored", predictions, result["reason"])
+    for model in ind_benchmark.IND_MODELS:  # a declared file per model, giving the reason
+        stored, metadata = read_predictions(tmp_path / "stored" / f"{model}.parquet")
+        assert len(stored) == 0 and metadata["not_run_reason"] == ind.NOT_PROVIDED_REASON
+        assert metadata["model"] == model and metadata["unit"] == "px"
 
 
 def test_benchmark_smoke_on_the_fixture_with_labels(tmp_path):
     torch.set_num_threads(1)
     root = write_ind_copy(tmp_path / "copy", labels=tmp_path / "masks")
     ind.write(build(root, labels=str(tmp_path / "masks")), tmp_path / "ind", tmp_path / "w.json")
-    result = ind_benchmark.run_benchmark(tmp_path / "ind", write_tiny_unet(tmp_path / "unet.pt"),
-                                         tmp_path / "ckpt", tiny_settings())
+    result, predictions = ind_benchmark.run_benchmark(
+        tmp_path / "ind", write_tiny_unet(tmp_path / "unet.pt"), tmp_path / "ckpt", tiny_settings())
     assert result["provided"] is True and result["status"] == "ok" and result["t_f"] == 30
     assert result["windows"] == EXPECTED["tf30"] and result["n_windows"] == 2
     assert result["resize"] == 0.33 and result["train"]["epochs"] == 1
@@ -394,6 +401,26 @@ def test_benchmark_smoke_on_the_fixture_with_labels(tmp_path):
     assert sorted(p.name for p in (tmp_path / "ckpt").iterdir()) == [
         "pecnet_tf30", "pecnet_tf5", "segmentation", "sgan_tf30", "ynet"]
     json.dumps(result)  # the metrics file holds plain JSON values only
+
+    # every round of every model's test predictions stored: scored from the file, the same numbers
+    ind_benchmark.write_predictions(tmp_path / "stored", predictions)
+    n_past = json.loads((tmp_path / "ind" / "index.json").read_text())["n_past"]
+    test = to_arrays(pd.read_parquet(tmp_path / "ind" / "tf30.parquet").query("split == 'test'"),
+                     n_past)
+    per_round = {"ynet": result["main"]["per_round"],
+                 **{model: scores["per_round"] for model, scores in result["baselines"].items()}}
+    assert set(per_round) == set(ind_benchmark.IND_MODELS)
+    for model, rounds in per_round.items():
+        stored, metadata = read_predictions(tmp_path / "stored" / f"{model}.parquet")
+        assert metadata["benchmark"] == "ind_long_term" and metadata["unit"] == "px"
+        assert metadata["window_table"] == str(tmp_path / "ind" / "tf30.parquet")
+        assert metadata["k"] == 3  # Y-net: K_e x K_a = 3 x 1; the baselines: evaluate_baseline.k
+        for r, in_memory in enumerate(rounds):
+            arrays = prediction_arrays(stored, round=r)
+            np.testing.assert_array_equal(arrays.window_ids, test.window_id)
+            assert (arrays.goals is not None) == (model == "ynet")
+            scored = min_ade_fde(arrays.samples, test.future, arrays.goals)
+            assert {key: float(value.mean()) for key, value in scored.items()} == in_memory
 
 
 # ---------------------------------------------------------------------------------------------
@@ -443,6 +470,9 @@ def test_dvc_repro_without_and_with_the_path(tmp_path):
                                   "tf5": {"train": 0, "val": 0, "test": 0}}
     benchmark = json.loads((repo / "metrics/ind_benchmark.json").read_text())
     assert benchmark == {"provided": False, "status": "not provided", "reason": windows["reason"]}
+    for model in ind_benchmark.IND_MODELS:  # the declared predictions, empty, giving the reason
+        stored, metadata = read_predictions(repo / "data" / "predictions" / "ind" / f"{model}.parquet")
+        assert len(stored) == 0 and metadata["not_run_reason"] == windows["reason"]
 
     root = write_ind_copy(tmp_path / "copy")
     params = yaml.safe_load((repo / "params.yaml").read_text())
@@ -454,6 +484,8 @@ def test_dvc_repro_without_and_with_the_path(tmp_path):
     assert benchmark["provided"] is True and benchmark["semantic"]["source"] == "sdd_unet"
     assert np.isfinite(benchmark["main"]["ade"]["mean"]) and set(benchmark["baselines"]) == {
         "sgan", "pecnet", "rpecnet", "constant_velocity"}
+    stored, _ = read_predictions(repo / "data" / "predictions" / "ind" / "ynet.parquet")
+    assert stored["window_id"].nunique() == benchmark["n_windows"]
     assert "ind_windows" in (repo / "dvc.lock").read_text()
 
     status = dvc(["status", "ind_windows"], repo)  # the copy outside the repo is not a dependency

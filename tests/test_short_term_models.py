@@ -23,19 +23,27 @@ import yaml
 from pipeline.report import page as report
 from pipeline.data.homography import metres_to_pixels
 from pipeline.harness.metrics import window_errors
-from pipeline.config import (DATASETS, ShortTermModelsParams, YnetTraining, load_profile,
-                             read_params)
+from pipeline.harness.predictions import prediction_arrays, read_predictions
+from pipeline.harness.scoring import min_ade_fde
+from pipeline.config import (DATASETS, CwsParams, EvalParams, ShortTermModelsParams, TtstParams,
+                             YnetTraining, load_profile, read_params)
 from pipeline.data.semantic_maps import quantise
-from pipeline.data.short_term import MAP_CLASSES, EthUcySceneInfo, load_ethucy_scenes
+from pipeline.data.short_term import (MAP_CLASSES, EthUcySceneInfo, ethucy_scene_image,
+                                      load_ethucy_scenes)
+from pipeline.data.window_table import to_arrays
+from pipeline.data.ynet_data import window_inputs
 from pipeline.harness.baselines.common import subset
-from pipeline.runners.short_term import load_benchmark, to_metres, ynet_settings
+from pipeline.runners.short_term import (load_benchmark, load_dataset, qualitative_rows, table_path,
+                                         to_metres, ynet_inputs, ynet_settings)
+from pipeline.runners.ynet_scoring import (in_scene_frame, load_for_scoring, predict_scenes,
+                                           qualitative, sampling_options)
 from pipeline.stages import (evaluate_short_term_baseline, evaluate_short_term_ynet,
                              train_short_term_baseline, train_short_term_ynet)
 from pipeline.stages.short_term_tables import main as tables_main
 from pipeline.runners.ynet_training import YnetSettings, train
 from pipeline.data.window_table import WindowArrays
 from tests.fixtures import write_maps_folder
-from ynet.segmentation import CLASS_NAMES
+from ynet.segmentation import CLASS_NAMES, PAD_CLASS
 
 REPO = Path(__file__).resolve().parents[1]
 N_PAST, N_FUTURE = 8, 12
@@ -43,6 +51,7 @@ N_PAST, N_FUTURE = 8, 12
 H_PLAIN = np.diag([0.05, 0.1, 1.0])
 ETH_SCENES = {"zara1": (H_PLAIN, False), "eth": (H_PLAIN, True)}  # fold "eth": test scene eth
 IMAGE_HW = (240, 320)
+ETH_CAMERA_HW = (200, 300)  # the eth camera image, smaller than its pixel grid IMAGE_HW
 
 
 # ---------------------------------------------------------------------------------------------
@@ -99,6 +108,14 @@ def write_ethucy(windows: Path) -> None:
         for name, (h, swap) in ETH_SCENES.items()})
 
 
+def write_ethucy_images(root: Path) -> None:
+    """Camera images in `ethucy-scenes/<scene>/reference.png`: eth's smaller than its pixel grid (as
+    zara2's), a white frame, so that its black border shows where the grid extends beyond it."""
+    for name, hw in (("eth", ETH_CAMERA_HW), ("zara1", IMAGE_HW)):
+        (root / name).mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(root / name / "reference.png"), np.full((*hw, 3), 255, np.uint8))
+
+
 def write_sdd(windows: Path, sdd_root: Path, maps: Path) -> None:
     rng = np.random.default_rng(1)
     table = window_table([("gates_0", "train", tracks(12, rng)), ("gates_1", "val", tracks(4, rng)),
@@ -141,6 +158,7 @@ def project(tmp_path_factory) -> Path:
     (root / "params.yaml").write_text(yaml.safe_dump(tiny_params()))
     windows = root / "data" / "short_term"
     write_ethucy(windows)
+    write_ethucy_images(root / "ethucy-scenes")
     write_sdd(windows, root / "sdd", root / "semantic_maps")
     torch.set_num_threads(1)
     runs = root / "metrics" / "short_term" / "runs"
@@ -153,15 +171,19 @@ def project(tmp_path_factory) -> Path:
             common = ["--dataset", dataset, "--windows", str(windows),
                       "--checkpoint-dir", str(root / "checkpoints" / f"{dataset}_{model}")]
             trained = root / "metrics" / "short_term" / "train" / f"{dataset}_{model}.json"
+            stored = root / "predictions" / dataset
+            scoring = ["--predictions", str(stored / f"{model}.parquet")]
             if model == "ynet":
                 common += ["--maps", str(maps), "--sdd", str(root / "sdd")]
+                scoring += ["--ethucy-scenes", str(root / "ethucy-scenes"),
+                            "--qualitative", str(stored / "ynet_qualitative.npz")]
                 stages = train_short_term_ynet, evaluate_short_term_ynet
             else:
                 common += ["--model", model]
                 stages = train_short_term_baseline, evaluate_short_term_baseline
             stages[0].main([*common, "--metrics", str(trained)])
             stages[1].main([*common, "--train-metrics", str(trained),
-                            "--metrics", str(runs / f"{dataset}_{model}.json")])
+                            "--metrics", str(runs / f"{dataset}_{model}.json"), *scoring])
         tables_main(["--runs", str(runs), "--out", str(root / "metrics" / "short_term")])
     finally:
         os.chdir(cwd)
@@ -328,6 +350,143 @@ def test_tables_and_homographies_that_disagree_fail(tmp_path):
     scenes["eth"] = EthUcySceneInfo(IMAGE_HW, scenes["eth"].homography, swap=False)  # wrong flag
     with pytest.raises(ValueError, match="disagree"):
         load_benchmark(table, "eth", N_PAST, N_FUTURE, scenes)
+
+
+# ---------------------------------------------------------------------------------------------
+# Stored predictions and the qualitative windows
+
+QUALITATIVE = {"scene_image": (np.uint8, 3), "past": (np.float32, 2), "future": (np.float32, 2),
+               "goal_heatmap": (np.float32, 2), "sampled_goals": (np.float32, 2),
+               "trajectory_heatmap": (np.float32, 2), "predictions": (np.float32, 3),
+               "scene_id": (np.str_, 0)}  # the long-term qualitative.npz's keys: dtype, ndim
+
+
+def stored_truth(metadata: dict) -> WindowArrays:
+    """The test windows of the table a predictions file names, in the columns it compares with."""
+    table = pd.read_parquet(metadata["window_table"])
+    x, y = metadata["truth_columns"]
+    return to_arrays(table[table["split"] == "test"].assign(x=table[x], y=table[y]), N_PAST)
+
+
+@pytest.mark.parametrize("dataset, model, unit, goals", [
+    ("eth", "ynet", "m", True), ("eth", "sgan", "m", False), ("eth", "pecnet", "m", False),
+    ("sdd", "ynet", "px", True), ("sdd", "pecnet", "px", False)])
+def test_stored_predictions_score_to_the_run_records_numbers(project, dataset, model, unit, goals):
+    record = run_record(project, f"{dataset}_{model}")
+    stored, metadata = read_predictions(project / "predictions" / dataset / f"{model}.parquet")
+    table_stem = "sdd_trajnet" if dataset == "sdd" else f"ethucy_{dataset}"
+    assert {key: metadata[key] for key in ("model", "benchmark", "unit", "seeds", "k", "ks_scored")} \
+        == {"model": model, "benchmark": f"short_term_{table_stem}", "unit": unit, "seeds": [0, 1],
+            "k": 20, "ks_scored": record["ks"]}
+    truth = stored_truth(metadata)
+    for r, in_memory in enumerate(record["k20"]["per_round"]):
+        arrays = prediction_arrays(stored, round=r)
+        np.testing.assert_array_equal(arrays.window_ids, truth.window_id)
+        assert (arrays.goals is not None) == goals and np.isnan(arrays.weights).all()
+        assert arrays.samples.shape == (5, 20, N_FUTURE, 2)
+        from_file = min_ade_fde(arrays.samples, truth.future, arrays.goals)
+        assert {key: float(value.mean()) for key, value in from_file.items()} == in_memory
+    # every stored window has its scene and the frame of each step in the table
+    table = pd.read_parquet(metadata["window_table"])
+    steps = table[table["window_id"].isin(stored["window_id"].unique())]
+    assert steps.groupby("window_id").size().eq(N_PAST + N_FUTURE).all()
+    assert steps["scene_id"].notna().all() and steps["frame"].notna().all()
+
+
+def test_a_ynet_run_outside_the_profile_stores_its_reason(project):
+    reason = run_record(project, "hotel_ynet")["not_run_reason"]
+    stored, metadata = read_predictions(project / "predictions" / "hotel" / "ynet.parquet")
+    assert len(stored) == 0 and metadata["not_run_reason"] == reason and metadata["unit"] == "m"
+    with np.load(project / "predictions" / "hotel" / "ynet_qualitative.npz") as npz:
+        assert npz.files == ["not_run_reason"] and str(npz["not_run_reason"]) == reason
+
+
+@pytest.mark.parametrize("dataset, crop", [("eth", 32), ("sdd", 0)])
+def test_the_qualitative_windows_have_the_long_term_layout(project, dataset, crop):
+    path = project / "predictions" / dataset / "ynet_qualitative.npz"
+    with np.load(path) as npz:
+        arrays = {key: npz[key] for key in npz.files}
+    assert set(arrays) == {f"{key}_{i}" for key in QUALITATIVE for i in range(3)}
+    for name, value in arrays.items():
+        dtype, ndim = QUALITATIVE[name.rsplit("_", 1)[0]]
+        assert value.dtype.type == dtype and value.ndim == ndim, name
+    windows = project / "data" / "short_term"
+    table = pd.read_parquet(table_path(windows, dataset))
+    test = to_arrays(table[table["split"] == "test"], N_PAST)
+    height, width = (round(side * 0.25) for side in IMAGE_HW)  # the maps' resize
+    for i, row in enumerate(qualitative_rows(test)):
+        assert str(arrays[f"scene_id_{i}"]) == test.scene_id[row]
+        # coordinates in pixels of the scene image at the model's resize
+        np.testing.assert_allclose(arrays[f"past_{i}"], test.past[row] * 0.25, rtol=1e-6)
+        np.testing.assert_allclose(arrays[f"future_{i}"], test.future[row] * 0.25, rtol=1e-6)
+        assert arrays[f"scene_image_{i}"].shape == (height, width, 3)
+        assert arrays[f"goal_heatmap_{i}"].shape == arrays[f"trajectory_heatmap_{i}"].shape == (height, width)
+        assert arrays[f"predictions_{i}"].shape == (20, N_FUTURE, 2)
+        reached = np.count_nonzero(arrays[f"goal_heatmap_{i}"])  # a crop reaches crop^2 pixels
+        assert 0 < reached <= (crop * crop if crop else height * width)
+    if dataset == "eth":  # the camera frame in the grid's top-left corner, black beyond it
+        assert (arrays["scene_image_0"][0, 0] == 255).all() and (arrays["scene_image_0"][-1, -1] == 0).all()
+    loaded = report.load_qualitative(path)
+    assert len(loaded.examples) == 3 and loaded.problems == ()
+
+
+def test_a_cropped_qualitative_window_lies_where_scoring_puts_it(project):
+    """`qualitative` on a crop adds the crop's origin back: its samples are `predict_scenes`'s
+    (same seed, one window, one batch) in pixels of the resized map."""
+    torch.set_num_threads(1)
+    windows = project / "data" / "short_term"
+    bench, scenes_info = load_dataset(windows, "eth", N_PAST, N_FUTURE)
+    maps, sizes, _ = ynet_inputs(windows / "ethucy_semantic", None, {"eth"}, scenes_info)
+    model, loaded, scenes = load_for_scoring(project / "checkpoints" / "eth_ynet" / "best.pt",
+                                             bench.test, maps, sizes)
+    assert loaded.crop == 32
+    options = sampling_options(20, 1, TtstParams(), CwsParams(), True, False)
+    scene, row = scenes[0], 2
+    _, origin = window_inputs(scene.semantic, scene.past[row:row + 1], loaded.max_distance,
+                              loaded.crop, PAD_CLASS, loaded.crop_lead_steps)
+    assert (origin != 0).any()  # the crop does not start at the map's corner
+    drawn = qualitative(model, scene, row, loaded, options, np.zeros((*IMAGE_HW, 3), np.uint8), 7,
+                        loaded.crop, loaded.crop_lead_steps)
+    paths, goals = predict_scenes(model, [scene.subset([row])], loaded, options, 7,
+                                  EvalParams(batch_size=1, chunk_size=8, bf16=False),
+                                  len(bench.test), "one", loaded.crop, loaded.crop_lead_steps)
+    index = scene.index[row]
+    np.testing.assert_allclose(drawn["sampled_goals"], goals[index] * loaded.resize, atol=1e-4)
+    np.testing.assert_allclose(drawn["predictions"], paths[index] * loaded.resize, atol=1e-4)
+
+
+def test_qualitative_rows_prefer_other_scenes_then_other_tracks():
+    moved = np.array([5.0, 9.0, 3.0, 7.0, 1.0])  # rows by distance: 1, 3, 0, 2, 4
+    past = np.zeros((5, N_PAST, 2))
+    future = np.zeros((5, N_FUTURE, 2))
+    future[:, -1, 0] = moved
+    test = WindowArrays(past=past, future=future, window_id=np.arange(5),
+                        scene_id=np.array(["a", "a", "b", "a", "b"]),
+                        track_id=np.array([0, 1, 2, 1, 3]), first_frame=np.zeros(5),
+                        split=np.array(["test"] * 5))
+    # row 1 (scene a), row 2 (the farthest of scene b), then row 0: row 3 is row 1's track
+    assert qualitative_rows(test, 3) == [1, 2, 0]
+    assert qualitative_rows(test, 5) == [1, 2, 0, 4, 3]  # row 4: a new track; row 3 last
+    assert qualitative_rows(subset(test, np.array([0])), 3) == [0]
+
+
+def test_a_heatmap_goes_into_the_scene_frame_at_its_origin():
+    heatmap = torch.tensor([[1.0, 2.0], [3.0, 4.0]])
+    out = in_scene_frame(heatmap, (-1, 1), 3, 3)  # column -1 falls off the map
+    np.testing.assert_array_equal(out, [[0, 0, 0], [2, 0, 0], [4, 0, 0]])
+    np.testing.assert_array_equal(in_scene_frame(heatmap, (0, 0), 1, 2), [[1, 2]])  # padding cut
+    assert out.dtype == np.float32
+
+
+def test_an_ethucy_camera_image_sits_in_its_grids_corner(tmp_path):
+    write_ethucy_images(tmp_path)
+    image = ethucy_scene_image(tmp_path, "eth", (210, 320))
+    assert image.shape == (210, 320, 3) and image.dtype == np.uint8
+    assert (image[:200, :300] == 255).all() and (image[200:] == 0).all() and (image[:, 300:] == 0).all()
+    with pytest.raises(ValueError, match=r"eth/reference.png: 200 x 300 pixels, larger than"):
+        ethucy_scene_image(tmp_path, "eth", (150, 320))
+    with pytest.raises(ValueError, match="no ETH/UCY scene 'nowhere'"):
+        ethucy_scene_image(tmp_path, "nowhere", (150, 320))
 
 
 # ---------------------------------------------------------------------------------------------

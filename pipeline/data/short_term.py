@@ -409,6 +409,26 @@ def load_ethucy_scenes(folder: Path) -> dict[str, EthUcySceneInfo]:
             for name in scenes}
 
 
+def ethucy_scene_image(scenes_root: Path, name: str, image_hw: tuple[int, int]) -> np.ndarray:
+    """(H, W, 3) uint8 BGR: the camera image of scene `name` (`<scenes_root>/<image>/reference.png`)
+    on the scene's pixel grid `image_hw` (oracle.png's, the tables' x, y, which the homography maps
+    to metres): the camera frame is the grid's top-left corner, black where the grid is larger
+    (zara2 / zara3: a 576 x 720 frame on a 640 x 736 grid; the other scenes' sizes agree)."""
+    if name not in SCENES:
+        raise ShortTermInputError(f"no ETH/UCY scene {name!r} (known: {sorted(SCENES)})")
+    path = Path(scenes_root) / SCENES[name].image / "reference.png"
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise ShortTermInputError(f"{path}: missing or not an image")
+    height, width = image_hw
+    if image.shape[0] > height or image.shape[1] > width:
+        raise ShortTermInputError(f"{path}: {image.shape[0]} x {image.shape[1]} pixels, larger than "
+                                  f"scene {name}'s grid {height} x {width}")
+    canvas = np.zeros((height, width, 3), np.uint8)
+    canvas[:image.shape[0], :image.shape[1]] = image
+    return canvas
+
+
 def on_road_fraction(tables: dict[str, pd.DataFrame], release_root: Path) -> dict[str, float]:
     """Per scene, the share of window positions (all folds) on an oracle road pixel."""
     positions = pd.concat([t[["scene_id", "x", "y"]] for t in tables.values()], ignore_index=True)

@@ -20,6 +20,9 @@ the reason in the inD cells. Otherwise, with the library functions the SDD stage
 
 The benchmark's metrics have the layout of `metrics/ynet_eval.json` ("t_f", "rounds", "main",
 "ablation", "ka_grid") plus "baselines": {<model>: the layout of `metrics/baselines/<model>_tf30.json`}.
+Every round of each model's test predictions (Y-net: the main setting's paths and sampled goals) is
+stored in pixels of the recording's background, one file per model (`write_predictions`; window
+ids of the t_f = 30 s table), or, inD not provided, an empty file per model giving the reason.
 Checkpoints (`--checkpoint-dir`): ynet/, sgan_tf30/, pecnet_tf30/ and pecnet_tf5/ survive an
 interruption and resume, while a changed run (other windows, maps or settings) starts afresh;
 segmentation/model.pt is the fine-tuned U-Net (short; re-trained on every run, seeded).
@@ -51,13 +54,14 @@ from pipeline.device import CPU
 from pipeline.harness import baseline_runs, baselines
 from pipeline.harness.baselines.common import select_split
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet
-from pipeline.io import (IntermediateError, check_array, index_value, read_json_index, read_npz,
-                         write_npz)
+from pipeline.harness.predictions import PredictionRounds, write_no_predictions
+from pipeline.io import (IntermediateError, atomic_dir, check_array, index_value, read_json_index,
+                         read_npz, write_npz)
 from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.segmentation import (downsample_pair, epoch_batches, export_model, learning_rate,
                                            pad_to_multiple, scaled_size, train_step)
 from pipeline.runners.segmentation import load_model as load_unet
-from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring
+from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring, sampling_options
 from pipeline.runners.ynet_training import YnetSettings, train
 from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
@@ -66,6 +70,9 @@ from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
 
 MAPS = "segmentation/maps.npz"  # in the checkpoint folder: the maps Y-net trained on, for scoring
+BASELINE_MODELS = (*TRAINED_BASELINES, "rpecnet", "constant_velocity")
+IND_MODELS = ("ynet", *BASELINE_MODELS)  # one stored predictions file each
+IND_BENCHMARK = "ind_long_term"  # the benchmark name in the stored predictions' metadata
 
 
 @dataclass(frozen=True)
@@ -308,14 +315,15 @@ def train_ynet(splits: dict[str, WindowArrays], maps: dict[str, np.ndarray],
 
 
 def score_ynet(test: WindowArrays, maps: dict[str, np.ndarray], sizes: dict[str, tuple[int, int]],
-               settings: IndEvalSettings, folder: Path, device: torch.device = CPU) -> dict:
+               settings: IndEvalSettings, folder: Path, device: torch.device = CPU,
+               kept: PredictionRounds | None = None) -> dict:
     """The best epoch in `folder` (its settings from the checkpoint) on test: the main result,
-    ablation and K_a grid."""
+    ablation and K_a grid; `kept` receives the main result's rounds."""
     model, ynet_settings, scenes = load_for_scoring(folder / "best.pt", test, maps, sizes, device)
     params = settings.eval
     return {"n_windows": len(test), "rounds": params.rounds, "resize": ynet_settings.resize,
             **evaluation_sequence(model, scenes, ynet_settings, params, settings.ttst, settings.cws,
-                                  test.future, label="inD ")}
+                                  test.future, label="inD ", kept=kept)}
 
 
 def baseline_dirs(checkpoint_dir: Path, horizon: int, base_horizon: int) -> dict[str, Path | None]:
@@ -342,22 +350,53 @@ def train_baselines(long: WindowArrays, base: WindowArrays, settings: IndTrainSe
 
 
 def score_baselines(long: WindowArrays, base: WindowArrays, settings: IndEvalSettings,
-                    checkpoint_dir: Path, device: torch.device = CPU) -> dict[str, dict]:
-    """model -> scores in the layout of metrics/baselines/<model>_tf30.json."""
+                    checkpoint_dir: Path, device: torch.device = CPU
+                    ) -> tuple[dict[str, dict], dict[str, PredictionRounds]]:
+    """model -> scores in the layout of metrics/baselines/<model>_tf30.json, and model -> every
+    round's predictions, as scored."""
     evaluation = settings.evaluate_baseline
     torch.set_num_threads(settings.threads)
     horizon = long.future.shape[1]
     dirs = baseline_dirs(checkpoint_dir, horizon, base.future.shape[1])
     test = select_split(long, evaluation.split)
-    results = {}
-    for model in (*TRAINED_BASELINES, "rpecnet", "constant_velocity"):
+    results, kept = {}, {}
+    for model in BASELINE_MODELS:
         fitted = baselines.get(model).load(dirs[model], device)
+        kept[model] = PredictionRounds(test.window_id)
         scores = baseline_runs.evaluate(fitted, test, evaluation.k, evaluation.rounds,
-                                        evaluation.seed, device)
+                                        evaluation.seed, device, kept[model])
         results[model] = {"model": model, "horizon": horizon, "split": evaluation.split,
                           "seed": evaluation.seed, **scores,
                           **baseline_runs.training_facts(model, dirs[model])}
-    return results
+    return results, kept
+
+
+# ---------------------------------------------------------------------------------------------
+# Stored predictions
+
+
+def prediction_metadata(model: str, table: Path | None = None, **extra) -> dict:
+    """What an inD predictions file records besides its seeds (pixels of the recording's background
+    image; window ids of `table`, the t_f = 30 s window table of `ind_windows`)."""
+    metadata = {"model": model, "benchmark": IND_BENCHMARK, "unit": "px", "split": "test"}
+    if table is not None:
+        metadata["window_table"] = str(table)
+    return {**metadata, **extra}
+
+
+def write_predictions(folder: Path, predictions: dict[str, tuple[PredictionRounds, dict]],
+                      not_provided: str | None = None) -> None:
+    """`<folder>/<model>.parquet` for every model of `IND_MODELS`, the folder replaced as a whole:
+    each model's rounds and metadata from `predictions` (what `evaluate_benchmark` returns), or,
+    where inD was `not_provided` (the reason), empty files that give it."""
+    with atomic_dir(folder) as tmp:
+        for model in IND_MODELS:
+            path = tmp / f"{model}.parquet"
+            if not_provided is not None:
+                write_no_predictions(path, prediction_metadata(model), not_provided)
+            else:
+                rounds, metadata = predictions[model]
+                rounds.write(path, metadata)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -466,32 +505,52 @@ def train_benchmark(ind_dir: Path, segmentation_model: Path, checkpoint_dir: Pat
 
 
 def evaluate_benchmark(ind_dir: Path, checkpoint_dir: Path, trained: dict, settings: IndEvalSettings,
-                       device: torch.device = CPU) -> dict:
-    """Score what `train_benchmark` trained (`trained`: its record); returns the metrics record."""
+                       device: torch.device = CPU
+                       ) -> tuple[dict, dict[str, tuple[PredictionRounds, dict]]]:
+    """Score what `train_benchmark` trained (`trained`: its record); returns the metrics record and,
+    per model of `IND_MODELS`, every round of its test predictions (Y-net: the main setting's) with
+    the metadata its file records (`write_predictions`; none where inD was not provided)."""
     index = read_index(ind_dir)
     if not index["provided"]:
-        return not_provided_record(index["reason"])
+        return not_provided_record(index["reason"]), {}
     data = read_data(ind_dir, index)
     start = time.perf_counter()
     maps = read_maps(checkpoint_dir, index, ind_dir)
-    ynet = score_ynet(data.splits["test"], maps, data.sizes, settings, checkpoint_dir / "ynet", device)
-    return {
+    ynet_rounds = PredictionRounds(data.splits["test"].window_id)
+    ynet = score_ynet(data.splits["test"], maps, data.sizes, settings, checkpoint_dir / "ynet",
+                      device, ynet_rounds)
+    scores, kept = score_baselines(data.long, data.base, settings, checkpoint_dir, device)
+    table = Path(ind_dir) / index["tables"][str(index["horizon"])]
+    options = sampling_options(settings.eval.k_e, settings.eval.k_a, settings.ttst, settings.cws,
+                               True, True)
+    predictions = {"ynet": (ynet_rounds, prediction_metadata(
+        "ynet", table, k=options.K, k_e=options.K_e, k_a=options.K_a,
+        sampling=dataclasses.asdict(options), checkpoint=str(checkpoint_dir / "ynet" / "best.pt")))}
+    dirs = baseline_dirs(checkpoint_dir, data.long.future.shape[1], data.base.future.shape[1])
+    for model, rounds in kept.items():
+        predictions[model] = (rounds, prediction_metadata(
+            model, table, split=settings.evaluate_baseline.split, k=settings.evaluate_baseline.k,
+            checkpoint_dir=None if dirs[model] is None else str(dirs[model])))
+    record = {
         "provided": True, "status": "ok", "profile": settings.profile,
         "t_f": int(index["horizon"]), "k_e": settings.eval.k_e,
         "windows": {split: len(arrays) for split, arrays in data.splits.items()},
         **ynet, "train": trained["ynet"],
         "semantic": trained["semantic"],
-        "baselines": score_baselines(data.long, data.base, settings, checkpoint_dir, device),
+        "baselines": scores,
         "seconds": trained["seconds"] + time.perf_counter() - start,
     }
+    return record, predictions
 
 
 def run_benchmark(ind_dir: Path, segmentation_model: Path, checkpoint_dir: Path,
                   settings: BenchmarkSettings, device: torch.device = CPU,
-                  preemption: Preemption = NEVER) -> dict:
-    """Train, then score: the two stages in one call (tests)."""
+                  preemption: Preemption = NEVER
+                  ) -> tuple[dict, dict[str, tuple[PredictionRounds, dict]]]:
+    """Train, then score: the two stages in one call (tests); returns what `evaluate_benchmark`
+    returns."""
     trained = train_benchmark(ind_dir, segmentation_model, checkpoint_dir, settings.training, device,
                               preemption)
     if not trained["provided"]:
-        return trained
+        return trained, {}
     return evaluate_benchmark(ind_dir, checkpoint_dir, trained, settings.evaluation, device)

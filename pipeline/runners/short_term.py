@@ -23,20 +23,23 @@ Training (`train_ynet`, `train_baseline`) selects the epoch on validation ADE in
 checkpoint folder. Y-net trains with `pipeline.runners.ynet_training.train` (the long-term loop);
 `YnetSettings.semantic_classes` and `steps_per_epoch` carry the differences.
 
-Scoring (`score_ynet`, `score_baseline`) loads the best epoch from the checkpoint folder (its
+Scoring (`score_ynet`, `score_baseline`) takes the best epoch of the checkpoint folder (its
 settings with it) and scores it at each K of `k_sdd` / `k_ethucy` (best of K; K_e for Y-net) on
 every test window, in `rounds` seeded rounds (round r: seed + r), with `pipeline.harness.metrics`
 (independent minima, the paper's protocol, and joint ones). ETH/UCY: every predicted position
 (original pixels) is mapped to metres through its scene's homography and swap flag
 (`pipeline.data.homography.pixels_to_metres`) and compared with the table's metre columns `x_m`,
-`y_m`; upstream mixes pixels and metres there (upstream bug 4).
+`y_m`; upstream mixes pixels and metres there (upstream bug 4). The first K's rounds can be kept
+as scored, in the benchmark's unit (a `pipeline.harness.predictions.PredictionRounds`; metadata:
+`prediction_metadata`), and `ynet_qualitative` draws a few test windows as the long-term
+qualitative figure draws its own.
 
 A Y-net run on a dataset outside `ynet_datasets` gets the not-run record instead (a profile's
 choice, as `ynet_horizons`), which the report shows in the cell.
 
 Files: the training record `{dataset, model, profile, trained: true, train: <facts>}` (or the
 not-run record) and the run record `run_record` builds from it and the scores (the layout
-`short_term_tables` and the report read).
+`short_term_tables` and the report read); the stored predictions and Y-net's qualitative arrays.
 """
 
 from __future__ import annotations
@@ -53,15 +56,21 @@ import torch
 from pipeline.config import CwsParams, ShortTermModelsParams, TtstParams
 from pipeline.data.homography import pixels_to_metres
 from pipeline.data.semantic_maps import load_semantic_maps
-from pipeline.data.short_term import EthUcySceneInfo, load_ethucy_scenes
+from pipeline.data.short_term import (METRE_COLUMNS, EthUcySceneInfo, ethucy_scene_image,
+                                       load_ethucy_scenes)
 from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline.data.ynet_data import SceneWindows
 from pipeline.device import CPU, generator
 from pipeline.harness import baselines
 from pipeline.harness.baselines.common import select_split, subset
 from pipeline.harness.metrics import seeded_rounds, window_errors
+from pipeline.harness.predictions import PredictionRounds
 from pipeline.preemption import NEVER, Preemption
-from pipeline.runners.ynet_scoring import load_for_scoring, predict_scenes, sampling_options
+from pipeline.runners.ynet_scoring import (predict_scenes, qualitative_examples, sampling_options,
+                                           sdd_scene_image)
 from pipeline.runners.ynet_training import YnetSettings, image_sizes, train
+from ynet.model import YNet
+from ynet.sampling import SamplingOptions
 
 # File names inside the `short_term_windows` output folder (pipeline.data.short_term.build).
 SDD_TABLE = "sdd_trajnet.parquet"
@@ -71,6 +80,11 @@ METRES_TOLERANCE = 1e-6  # m: the homography must give back the table's metres o
 
 def benchmark_of(dataset: str) -> str:
     return "sdd" if dataset == "sdd" else "ethucy"
+
+
+def unit_of(dataset: str) -> str:
+    """px (SDD: original pixels) or m (ETH/UCY: metres through the homographies)."""
+    return "px" if dataset == "sdd" else "m"
 
 
 def table_path(windows: Path, dataset: str) -> Path:
@@ -166,17 +180,36 @@ def load_benchmark(table: pd.DataFrame, dataset: str, n_past: int, n_future: int
 
 
 def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None]], bench: Benchmark,
-          rounds: int, seed: int) -> dict:
-    """Best-of-K errors in the benchmark's unit over seeded rounds.
+          rounds: int, seed: int, kept: PredictionRounds | None = None) -> dict:
+    """Best-of-K errors in the benchmark's unit over seeded rounds; `kept` (for `bench.test`'s
+    windows) receives each round's paths and goals in that unit, exactly as scored.
 
     sample(seed) -> (paths (N, K, n_f, 2), goals (N, K, 2) or None) in original pixels.
     """
     def score_round(round_seed: int):
         paths, goals = sample(round_seed)
-        return window_errors(bench.to_unit(paths), bench.truth,
-                             None if goals is None else bench.to_unit(goals))
+        paths = bench.to_unit(paths)  # (N, K, n_f, 2) in bench.unit
+        goals = None if goals is None else bench.to_unit(goals)  # (N, K, 2)
+        if kept is not None:
+            kept.add(round_seed, paths, goals=goals)
+        return window_errors(paths, bench.truth, goals)
 
     return seeded_rounds(score_round, rounds, seed)
+
+
+def prediction_metadata(windows: Path, dataset: str, model: str, ks: list[int] | None = None,
+                        **extra) -> dict:
+    """What a stored short-term predictions file records besides its seeds: the model, the
+    benchmark of the window table scored (`short_term_<table stem>`: window ids belong to their
+    table), the unit and the table's columns the predictions compare with, the split and, where
+    scored, K (the first of `ks`, the K stored) and every K scored."""
+    table = table_path(windows, dataset)
+    metadata = {"model": model, "benchmark": f"short_term_{table.stem}", "unit": unit_of(dataset),
+                "truth_columns": ["x", "y"] if dataset == "sdd" else list(METRE_COLUMNS),
+                "split": "test", "window_table": str(table)}
+    if ks is not None:
+        metadata.update(k=ks[0], ks_scored=list(ks))
+    return {**metadata, **extra}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -228,27 +261,82 @@ def train_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n
                  folder / "best.pt", folder / "history.csv", device=device, preemption=preemption)
 
 
-def score_ynet(bench: Benchmark, semantic_maps, sizes, folder: Path, params: ShortTermModelsParams,
-               ks: list[int], device: torch.device = CPU) -> tuple[dict[int, dict], float, dict]:
-    """Score the best epoch in `folder` at every K_e of `ks`: (scores per K, seconds, the model's
-    reported settings). Reads only the scoring keys of `params` (temperature, rel_threshold, the
-    K lists, rounds, seed, eval_batch_size, eval_chunk_size, bf16)."""
-    model, loaded, scenes = load_for_scoring(folder / "best.pt", bench.test, semantic_maps, sizes,
-                                             device)
+def ynet_options(params: ShortTermModelsParams, k: int) -> SamplingOptions:
+    """The short-term sampling at K_e = `k`: TTST, no CWS, K_a = 1 (the goal is the only
+    waypoint)."""
     ttst = TtstParams(temperature=params.temperature, rel_threshold=params.rel_threshold)
+    return sampling_options(k, 1, ttst, CwsParams(), use_ttst=True, use_cws=False)
+
+
+def score_ynet(model: YNet, loaded: YnetSettings, scenes: list[SceneWindows], bench: Benchmark,
+               params: ShortTermModelsParams, ks: list[int], kept: PredictionRounds | None = None
+               ) -> tuple[dict[int, dict], float, dict]:
+    """Score the checkpoint `load_for_scoring` gave (`model`, its settings `loaded`, `bench.test`
+    grouped by scene) at every K_e of `ks`: (scores per K, seconds, the model's reported settings).
+    `kept` receives the rounds of the first K (`score`). Reads only the scoring keys of `params`
+    (temperature, rel_threshold, the K lists, rounds, seed, eval_batch_size, eval_chunk_size, bf16)."""
     eval_params = params.eval_params()
     start, results = time.perf_counter(), {}
-    for k in ks:  # K_a = 1, no CWS: the goal is the only waypoint
-        options = sampling_options(k, 1, ttst, CwsParams(), use_ttst=True, use_cws=False)
+    for k in ks:
+        options = ynet_options(params, k)
 
         def sample(seed: int, options=options) -> tuple[np.ndarray, np.ndarray]:
             return predict_scenes(model, scenes, loaded, options, seed, eval_params,
                                   len(bench.test), f"Y-net K_e={options.K_e}", loaded.crop,
                                   loaded.crop_lead_steps)
 
-        results[k] = score(sample, bench, params.rounds, params.seed)
+        results[k] = score(sample, bench, params.rounds, params.seed,
+                           kept if k == ks[0] else None)
     seconds = time.perf_counter() - start
     return results, seconds, {key: getattr(loaded, key) for key in YNET_REPORTED_SETTINGS}
+
+
+QUALITATIVE_WINDOWS = 3  # test windows drawn for the animated view (few: one forward pass each)
+
+
+def qualitative_rows(test: WindowArrays, n: int = QUALITATIVE_WINDOWS) -> list[int]:
+    """Rows of `n` test windows that move farthest (last observed to last future position), in
+    different scenes first, then of different tracks, then any: deterministic (ties to the lower
+    row), and varied where the test split allows."""
+    moved = np.linalg.norm(test.future[:, -1] - test.past[:, -1], axis=-1)  # (N,)
+    order = np.argsort(-moved, kind="stable")
+    chosen: list[int] = []
+    for key in (lambda r: test.scene_id[r], lambda r: (test.scene_id[r], test.track_id[r]),
+                lambda r: r):
+        used = {key(r) for r in chosen}
+        for r in order.tolist():
+            if len(chosen) == n:
+                return chosen
+            if r not in chosen and key(r) not in used:
+                chosen.append(r)
+                used.add(key(r))
+    return chosen
+
+
+def scene_images(sdd: Path | None, ethucy_root: Path | None,
+                 ethucy_scenes: dict[str, EthUcySceneInfo] | None) -> Callable[[str], np.ndarray]:
+    """scene_id -> its original-size BGR image, on the grid of the windows' original pixels: SDD's
+    `reference.jpg` under `sdd`, or (ETH/UCY, `ethucy_scenes` given) the camera image on the
+    scene's oracle grid (`ethucy_scene_image`)."""
+    if ethucy_scenes is None:
+        return lambda scene_id: sdd_scene_image(sdd, scene_id)
+    return lambda name: ethucy_scene_image(ethucy_root, name, ethucy_scenes[name].image_hw)
+
+
+def ynet_qualitative(model: YNet, loaded: YnetSettings, scenes: list[SceneWindows],
+                     bench: Benchmark, params: ShortTermModelsParams, k: int,
+                     image_of: Callable[[str], np.ndarray]) -> dict[str, np.ndarray]:
+    """The `qualitative_rows` windows drawn as the long-term qualitative figure draws its own
+    (`ynet_scoring.qualitative_examples`: the same keys and dtypes, coordinates in pixels of the
+    scene image resized to the model's map), sampled at K_e = `k` with `params.seed`, on the crop
+    the model scores each window on."""
+    by_id = {scene.scene_id: scene for scene in scenes}
+    picks = []
+    for r in qualitative_rows(bench.test):
+        scene = by_id[bench.test.scene_id[r]]
+        picks.append((scene, int(np.flatnonzero(scene.index == r)[0]), image_of(scene.scene_id)))
+    return qualitative_examples(model, picks, loaded, ynet_options(params, k), params.seed,
+                                loaded.crop, loaded.crop_lead_steps)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -270,15 +358,17 @@ def train_baseline(name: str, bench: Benchmark, config, folder: Path, train_seed
 
 
 def score_baseline(name: str, bench: Benchmark, folder: Path, ks: list[int], rounds: int, seed: int,
-                   device: torch.device = CPU) -> tuple[dict[int, dict], float]:
-    """Score the best epoch in `folder` (its config from the checkpoint) at every K of `ks`."""
+                   device: torch.device = CPU, kept: PredictionRounds | None = None
+                   ) -> tuple[dict[int, dict], float]:
+    """Score the best epoch in `folder` (its config from the checkpoint) at every K of `ks`;
+    `kept` receives the rounds of the first K (`score`)."""
     model = baselines.get(name).load(folder, device)
     start, results = time.perf_counter(), {}
     for k in ks:
         def sample(seed: int, k=k) -> tuple[np.ndarray, None]:
             return model.predict(bench.test, k, generator(device, seed)), None
 
-        results[k] = score(sample, bench, rounds, seed)
+        results[k] = score(sample, bench, rounds, seed, kept if k == ks[0] else None)
     return results, time.perf_counter() - start
 
 

@@ -7,7 +7,9 @@ ablation (no TTST no CWS, CWS only, both) and the K_e x K_a grid behind the pape
 written once for SDD and inD. Every round is seeded (`eval.seed + round`), so a fixed checkpoint
 gives bit-identical metrics (on one CPU; on CUDA up to float rounding). The main setting's paths
 and goals of every round can be kept as scored (`kept`, a `pipeline.harness.predictions`
-`PredictionRounds`) for the stored-predictions file. Runs on the model's device;
+`PredictionRounds`) for the stored-predictions file. `qualitative_examples` draws a few windows'
+heatmaps and samples in one npz layout (the long-term figure's `qualitative_arrays` and the
+short-term windows of `pipeline.runners.short_term`). Runs on the model's device;
 on CUDA the trajectory decoder runs in bfloat16 (goals, and so FDE, stay float32). The model's
 settings come from its checkpoint (`load_model`), never from params.yaml.
 """
@@ -25,9 +27,9 @@ import torch
 from tqdm import tqdm
 
 from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.data.labels import reference_image_path
 from pipeline.data.window_table import WindowArrays
-from pipeline.data.ynet_data import (SceneWindows, group_by_scene, model_input, padded_semantic,
-                                    window_inputs)
+from pipeline.data.ynet_data import SceneWindows, group_by_scene, window_inputs
 from pipeline.device import CPU, conv_layout, generator, module_device
 from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
@@ -137,32 +139,77 @@ def evaluate(model, scenes, settings, options, params, truth, rounds, desc,
     return rounds_result(seeded_rounds(score_round, rounds, params.seed), options)
 
 
+def in_scene_frame(heatmap: torch.Tensor, origin: tuple[int, int], height: int,
+                   width: int) -> np.ndarray:
+    """A heatmap (h, w) over the model's input, whose pixel [0, 0] lies at `origin` (x, y) of the
+    scene map, as a float32 (height, width) array over the scene map: zero where the input did not
+    reach (a crop), the padding beyond the map dropped."""
+    out = np.zeros((height, width), np.float32)
+    (x, y), (h, w) = origin, heatmap.shape
+    x0, y0, x1, y1 = max(x, 0), max(y, 0), min(x + w, width), min(y + h, height)
+    if x1 > x0 and y1 > y0:
+        out[y0:y1, x0:x1] = heatmap[y0 - y:y1 - y, x0 - x:x1 - x].float().cpu().numpy()
+    return out
+
+
 @torch.inference_mode()
 def qualitative(model: YNet, scene: SceneWindows, row: int, settings: YnetSettings,
-                options: SamplingOptions, image: np.ndarray, seed: int) -> dict[str, np.ndarray]:
-    """Heatmaps and samples of one window, in the resized scene image's pixels."""
+                options: SamplingOptions, image: np.ndarray, seed: int, crop: int = 0,
+                crop_lead_steps: float = 0.0) -> dict[str, np.ndarray]:
+    """Heatmaps and samples of one window, in the resized scene image's pixels. `image` (H, W, 3)
+    BGR is the scene at its original size; `crop` > 0 runs the model on the crop x crop window
+    `predict_scenes` gives it (heatmaps zero outside it)."""
     device = module_device(model)
     scene = scene.to(device)
-    semantic = padded_semantic(scene.semantic, PAD_CLASS)
     height, width = scene.semantic.shape[-2:]
     past = scene.past[row:row + 1]
-    inputs = model_input(semantic, past, settings.max_distance)
-    out = predict(model, inputs, past[:, -1], options, generator(device, seed),
+    inputs, origin = window_inputs(scene.semantic, past, settings.max_distance, crop, PAD_CLASS,
+                                   crop_lead_steps)  # (1, C + n_p, H', W'), origin (1, 2)
+    out = predict(model, inputs, past[:, -1] - origin, options, generator(device, seed),
                   settings.max_distance)
     features = model.encode(inputs)
     goal_logits = model.predict_goals(features)[0, -1]
     first = out.waypoints[:, :1]  # (1, 1, n_w, 2) the first sample's goal and waypoints
-    maps = distance_maps(first[0], *semantic.shape[-2:], settings.max_distance)
-    trajectory_logits = model.predict_trajectory(features, maps)[0]  # (n_f, H, W)
+    maps = distance_maps(first[0], *inputs.shape[-2:], settings.max_distance)
+    trajectory_logits = model.predict_trajectory(features, maps)[0]  # (n_f, H', W')
+    at = tuple(int(v) for v in origin[0].round().tolist())  # crop pixel [0, 0] in the scene map
+
+    def scene_frame(heatmap: torch.Tensor) -> np.ndarray:
+        return in_scene_frame(heatmap, at, height, width)
+
     return {
         "scene_image": cv2.cvtColor(cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA),
                                     cv2.COLOR_BGR2RGB),
         "past": past[0].cpu().numpy(), "future": scene.future[row].cpu().numpy(),
-        "goal_heatmap": torch.sigmoid(goal_logits / options.temperature)[:height, :width].cpu().numpy(),
-        "sampled_goals": out.goals[0].cpu().numpy(),
-        "trajectory_heatmap": torch.sigmoid(trajectory_logits).amax(0)[:height, :width].cpu().numpy(),
-        "predictions": out.trajectory[0].cpu().numpy(),
+        "goal_heatmap": scene_frame(torch.sigmoid(goal_logits / options.temperature)),
+        "sampled_goals": (out.goals[0] + origin).cpu().numpy(),
+        "trajectory_heatmap": scene_frame(torch.sigmoid(trajectory_logits).amax(0)),
+        "predictions": (out.trajectory[0] + origin).cpu().numpy(),
     }
+
+
+def qualitative_examples(model: YNet, picks: list[tuple[SceneWindows, int, np.ndarray]],
+                         settings: YnetSettings, options: SamplingOptions, seed: int,
+                         crop: int = 0, crop_lead_steps: float = 0.0) -> dict[str, np.ndarray]:
+    """`qualitative` of each (scene, row, original BGR scene image) of `picks` (i = 0, 1, ...),
+    keyed `<name>_<i>`, plus `scene_id_<i>`: the layout of `data/ynet_predictions/qualitative.npz`,
+    which the report draws (`pipeline.report.page.load_qualitative`)."""
+    arrays = {}
+    for i, (scene, row, image) in enumerate(picks):
+        for key, value in qualitative(model, scene, row, settings, options, image, seed, crop,
+                                      crop_lead_steps).items():
+            arrays[f"{key}_{i}"] = value
+        arrays[f"scene_id_{i}"] = np.array(scene.scene_id)
+    return arrays
+
+
+def sdd_scene_image(sdd_root: Path, scene_id: str) -> np.ndarray:
+    """(H, W, 3) uint8 BGR: the `reference.jpg` of SDD video `scene_id` (`<scene>_<k>`)."""
+    path = reference_image_path(sdd_root, scene_id)
+    image = cv2.imread(str(path))
+    if image is None:
+        raise FileNotFoundError(f"{path}: cannot read the scene image")
+    return image
 
 
 def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
@@ -215,19 +262,13 @@ def qualitative_arrays(model: YNet, scenes: list[SceneWindows], settings: YnetSe
                        params: EvalParams, ttst: TtstParams, cws: CwsParams,
                        sdd_root: Path) -> dict[str, np.ndarray]:
     """The qualitative figure's arrays: for each of `params.qualitative_scenes` (i = 0, 1, ...), its
-    window that moves farthest, as `qualitative` draws it under the main sampling options, keyed
-    `<name>_<i>`, plus `scene_id_<i>`."""
+    window that moves farthest, as `qualitative` draws it under the main sampling options
+    (`qualitative_examples`)."""
     options = sampling_options(params.k_e, params.k_a, ttst, cws, True, True)
-    arrays = {}
     by_id = {s.scene_id: s for s in scenes}
-    for i, scene_id in enumerate(params.qualitative_scenes):
+    picks = []
+    for scene_id in params.qualitative_scenes:
         scene = by_id[scene_id]
         row = int(torch.linalg.norm(scene.future[:, -1] - scene.past[:, -1], dim=-1).argmax())
-        scene_name, video = scene_id.rsplit("_", 1)
-        image = cv2.imread(str(Path(sdd_root) / "annotations" / scene_name / f"video{video}" /
-                               "reference.jpg"))
-        for key, value in qualitative(model, scene, row, settings, options, image,
-                                      params.seed).items():
-            arrays[f"{key}_{i}"] = value
-        arrays[f"scene_id_{i}"] = np.array(scene_id)
-    return arrays
+        picks.append((scene, row, sdd_scene_image(sdd_root, scene_id)))
+    return qualitative_examples(model, picks, settings, options, params.seed)

@@ -3,12 +3,15 @@
 Y-net (its settings from the checkpoint) with TTST + CWS on the test windows over `eval.rounds`
 rounds, the Table 4 ablation and the K_e x K_a grid; S-GAN, PECNet, R-PECNet and constant velocity
 as `evaluate_baseline` scores them (`pipeline.runners.ind`). Writes `metrics/ind_benchmark.json` in
-the layout of `metrics/ynet_eval.json` plus "baselines", "semantic" and the training facts; inD not
-provided: the not-provided record, at once. Params: `profile`, `runtime.device`, `eval.<profile>`,
+the layout of `metrics/ynet_eval.json` plus "baselines", "semantic" and the training facts, and every
+round of each model's test predictions into the folder `--predictions` (`<model>.parquet`, pixels,
+`pipeline.harness.predictions`); inD not provided: the not-provided record and empty predictions
+files that give its reason, at once. Params: `profile`, `runtime.device`, `eval.<profile>`,
 `ttst`, `cws`, `evaluate_baseline`, `train_baseline.threads`.
 
     python -m pipeline.stages.evaluate_ind --ind data/ind --checkpoint-dir checkpoints/ind \
-        --train-metrics metrics/ind_train.json --metrics metrics/ind_benchmark.json
+        --train-metrics metrics/ind_train.json --metrics metrics/ind_benchmark.json \
+        --predictions data/predictions/ind
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from pathlib import Path
 from pipeline.config import read_params
 from pipeline.device import describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
-from pipeline.runners.ind import IndEvalSettings, evaluate_benchmark
+from pipeline.runners.ind import IndEvalSettings, evaluate_benchmark, write_predictions
 
 
 @exit_on_bad_intermediate
@@ -30,12 +33,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoint-dir", type=Path, required=True, help="of stage train_ind")
     parser.add_argument("--train-metrics", type=Path, required=True, help="of stage train_ind")
     parser.add_argument("--metrics", type=Path, required=True)
+    parser.add_argument("--predictions", type=Path, required=True,
+                        help="folder of every model's stored test predictions (<model>.parquet)")
     args = parser.parse_args(argv)
     settings = IndEvalSettings.from_params(read_params())
     device = select_device(settings.runtime.device)
     print(f"evaluate_ind: on {describe(device)}")
     trained = json.loads(args.train_metrics.read_text())
-    result = evaluate_benchmark(args.ind, args.checkpoint_dir, trained, settings, device)
+    result, predictions = evaluate_benchmark(args.ind, args.checkpoint_dir, trained, settings, device)
+    write_predictions(args.predictions, predictions,
+                      None if result["provided"] else result["reason"])
     write_json(result, args.metrics, sort_keys=True)
     if not result["provided"]:
         print(f"evaluate_ind: inD not provided: {result['reason']}")

@@ -3,14 +3,17 @@ benchmark (paper Tables 1-2).
 
 Loads the best epoch of `train_short_term_baseline` (its config from the checkpoint) and scores it
 on every test window at each K of `k_sdd` / `k_ethucy`, over `rounds` seeded rounds; ETH/UCY errors
-in metres (`pipeline.runners.short_term`). Params: `profile`, `runtime.device`,
+in metres (`pipeline.runners.short_term`). Also writes every round of the first K's test predictions
+in the benchmark's unit (window ids of the dataset's table in `--windows`;
+`pipeline.harness.predictions`). Params: `profile`, `runtime.device`,
 `short_term.n_past`, `short_term.n_future`, `train_baseline.threads`,
 `short_term_models.<profile>`: `k_sdd` / `k_ethucy`, `rounds`, `seed`.
 
     python -m pipeline.stages.evaluate_short_term_baseline --dataset eth --model pecnet \
         --windows data/short_term --checkpoint-dir checkpoints/short_term/eth_pecnet \
         --train-metrics metrics/short_term/train/eth_pecnet.json \
-        --metrics metrics/short_term/runs/eth_pecnet.json
+        --metrics metrics/short_term/runs/eth_pecnet.json \
+        --predictions data/predictions/short_term/eth/pecnet.parquet
 """
 
 from __future__ import annotations
@@ -25,8 +28,10 @@ from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTe
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
 from pipeline.device import describe, select_device
+from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json
-from pipeline.runners.short_term import load_dataset, run_record, score_baseline
+from pipeline.runners.short_term import (load_dataset, prediction_metadata, run_record,
+                                         score_baseline)
 
 
 @exit_on_bad_intermediate
@@ -41,6 +46,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--train-metrics", type=Path, required=True,
                         help="of train_short_term_baseline")
     parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
+    parser.add_argument("--predictions", type=Path, required=True,
+                        help="every round of the first K's test predictions (parquet)")
     args = parser.parse_args(argv)
     trained = json.loads(args.train_metrics.read_text())
     params = read_params()
@@ -53,8 +60,11 @@ def main(argv: list[str] | None = None) -> None:
     bench, _ = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
     torch.set_num_threads(load_section(TrainBaselineParams, "train_baseline", params).threads)
     ks = settings.ks(args.dataset)
+    kept = PredictionRounds(bench.test.window_id)
     results, seconds = score_baseline(args.model, bench, args.checkpoint_dir, ks, settings.rounds,
-                                      settings.seed, device)
+                                      settings.seed, device, kept)
+    kept.write(args.predictions, prediction_metadata(args.windows, args.dataset, args.model, ks,
+                                                     checkpoint_dir=str(args.checkpoint_dir)))
     facts = {**trained["train"], "eval_seconds": seconds}
     write_json(run_record(args.dataset, args.model, profile, bench, settings.rounds, ks, results,
                           facts), args.metrics)

@@ -4,28 +4,43 @@ Tables 1-2).
 Loads the best epoch of `train_short_term_ynet` (its settings from the checkpoint) and scores it on
 every test window at each K_e of `k_sdd` / `k_ethucy`: TTST (the short-term `temperature`,
 `rel_threshold`), no CWS, K_a = 1, over `rounds` seeded rounds; ETH/UCY errors in metres
-(`pipeline.runners.short_term`). A dataset that was not trained gets the training stage's not-run
-record. Params: `profile`, `runtime.device`, `short_term.n_past`, `short_term.n_future`,
+(`pipeline.runners.short_term`). Also writes every round of the first K_e's test predictions (paths
+and sampled goals in the benchmark's unit, window ids of the dataset's table in `--windows`;
+`pipeline.harness.predictions`) and a few test windows' heatmaps and samples in the layout of the
+long-term qualitative file (`--qualitative`; pixels of the scene image resized to the model's map:
+SDD's reference.jpg, ETH/UCY's camera image on the oracle grid the homography maps to metres). A
+dataset that was not trained gets the training stage's not-run record, an empty predictions file
+and a qualitative file holding only `not_run_reason`, all giving the same reason. Params:
+`profile`, `runtime.device`, `short_term.n_past`, `short_term.n_future`,
 `short_term_models.<profile>`: `temperature`, `rel_threshold`, `k_sdd` / `k_ethucy`, `rounds`,
 `seed`, `eval_batch_size`, `eval_chunk_size`, `bf16`.
 
     python -m pipeline.stages.evaluate_short_term_ynet --dataset eth --windows data/short_term \
         --maps data/short_term/ethucy_semantic --sdd data/raw/sdd \
-        --checkpoint-dir checkpoints/short_term/eth_ynet \
-        --train-metrics metrics/short_term/train/eth_ynet.json --metrics metrics/short_term/runs/eth_ynet.json
+        --ethucy-scenes data/raw/ethucy-scenes --checkpoint-dir checkpoints/short_term/eth_ynet \
+        --train-metrics metrics/short_term/train/eth_ynet.json --metrics metrics/short_term/runs/eth_ynet.json \
+        --predictions data/predictions/short_term/eth/ynet.parquet \
+        --qualitative data/predictions/short_term/eth/ynet_qualitative.npz
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
+
+import numpy as np
 
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
                              load_profile, load_section, read_params)
 from pipeline.device import describe, select_device
-from pipeline.io import exit_on_bad_intermediate, write_json
-from pipeline.runners.short_term import load_dataset, run_record, score_ynet, ynet_inputs
+from pipeline.harness.predictions import PredictionRounds, write_no_predictions
+from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
+from pipeline.runners.short_term import (load_dataset, prediction_metadata, run_record,
+                                         scene_images, score_ynet, ynet_inputs, ynet_options,
+                                         ynet_qualitative)
+from pipeline.runners.ynet_scoring import load_for_scoring
 
 MODEL = "ynet"
 
@@ -38,18 +53,30 @@ def main(argv: list[str] | None = None) -> None:
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--maps", type=Path, required=True,
                         help="Y-net's scene maps: data/semantic_maps (sdd) or <windows>/ethucy_semantic")
-    parser.add_argument("--sdd", type=Path, help="fetched SDD root (sdd: scene sizes)")
+    parser.add_argument("--sdd", type=Path, help="fetched SDD root (sdd: scene sizes and images)")
+    parser.add_argument("--ethucy-scenes", type=Path,
+                        help="fetched ETH/UCY camera images (ETH/UCY: the qualitative scene images)")
     parser.add_argument("--checkpoint-dir", type=Path, required=True, help="of train_short_term_ynet")
     parser.add_argument("--train-metrics", type=Path, required=True, help="of train_short_term_ynet")
     parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
+    parser.add_argument("--predictions", type=Path, required=True,
+                        help="every round of the first K_e's test predictions (parquet)")
+    parser.add_argument("--qualitative", type=Path, required=True,
+                        help="a few test windows' heatmaps and samples (npz)")
     args = parser.parse_args(argv)
     trained = json.loads(args.train_metrics.read_text())
     if not trained["trained"]:
+        reason = trained["not_run_reason"]
+        write_no_predictions(args.predictions, prediction_metadata(args.windows, args.dataset, MODEL),
+                             reason)
+        write_npz(args.qualitative, {"not_run_reason": np.array(reason)})
         write_json(trained, args.metrics)
-        print(f"evaluate_short_term_ynet: Y-net not run on {args.dataset}: {trained['not_run_reason']}")
+        print(f"evaluate_short_term_ynet: Y-net not run on {args.dataset}: {reason}")
         return
     if args.dataset == "sdd" and args.sdd is None:
         parser.error("Y-net on sdd needs --sdd")
+    if args.dataset != "sdd" and args.ethucy_scenes is None:
+        parser.error(f"Y-net on {args.dataset} needs --ethucy-scenes")
     params = read_params()
     profile = params["profile"]
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
@@ -59,9 +86,18 @@ def main(argv: list[str] | None = None) -> None:
 
     bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
     maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)
+    image_of = scene_images(args.sdd, args.ethucy_scenes, ethucy_scenes)
+    checkpoint = args.checkpoint_dir / "best.pt"
+    model, loaded, scenes = load_for_scoring(checkpoint, bench.test, maps, sizes, device)
     ks = settings.ks(args.dataset)
-    results, seconds, reported = score_ynet(bench, maps, sizes, args.checkpoint_dir, settings, ks,
-                                            device)
+    kept = PredictionRounds(bench.test.window_id)
+    results, seconds, reported = score_ynet(model, loaded, scenes, bench, settings, ks, kept)
+    qualitative = ynet_qualitative(model, loaded, scenes, bench, settings, ks[0], image_of)
+    options = ynet_options(settings, ks[0])
+    kept.write(args.predictions, prediction_metadata(
+        args.windows, args.dataset, MODEL, ks, k_e=options.K_e, k_a=options.K_a,
+        sampling=dataclasses.asdict(options), checkpoint=str(checkpoint)))
+    write_npz(args.qualitative, qualitative)
     facts = {**trained["train"], "eval_seconds": seconds, "settings": reported}
     write_json(run_record(args.dataset, MODEL, profile, bench, settings.rounds, ks, results, facts),
                args.metrics)
