@@ -6,13 +6,13 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from pipeline.config import CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
+from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
 from pipeline.config import load_profile
 from pipeline.runners.ynet_training import YnetSettings
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,
-            "semantic": SemanticParams, "data": DataParams}
+            "semantic": SemanticParams, "data": DataParams, "baseline_seeds": BaselineSeedsParams}
 
 
 def plain(value):
