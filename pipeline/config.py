@@ -681,6 +681,24 @@ class TrainBaselineParams:
 
 
 @dataclass
+class BaselineSeedsParams:
+    """Section `baseline_seeds`: every trained long-term baseline again with other training seeds
+    (stages `train_baseline_seed`, `evaluate_baseline_seed`, `evaluate_rpecnet_seed`), so the report
+    can show how far training alone moves the metrics. One list for both profiles: DVC 3.67's
+    matrix cannot take `${baseline_seeds.${profile}}`."""
+
+    extra: list[int] = field(default_factory=lambda: [1, 2])
+    """Training seeds besides `train_baseline.seed` (whose models are the report's main numbers);
+    [] trains none."""
+
+    def __post_init__(self):
+        if any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in self.extra):
+            raise ValueError(f"extra must be non-negative integer seeds, got {self.extra}")
+        if len(set(self.extra)) != len(self.extra):
+            raise ValueError(f"extra holds a seed twice: {self.extra}")
+
+
+@dataclass
 class EvaluateBaselineParams:
     k: int
     """Samples per window; the metric takes the best of them (paper: 20)."""

@@ -6,14 +6,15 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from pipeline.config import CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
+from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
 from pipeline.config import load_profile
 from pipeline.runners.ynet_training import YnetSettings
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,
             "semantic": SemanticParams, "data": DataParams,
-            "score_predictions": ScorePredictionsParams}
+            "score_predictions": ScorePredictionsParams,
+            "baseline_seeds": BaselineSeedsParams}
 
 
 def plain(value):

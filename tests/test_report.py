@@ -151,12 +151,31 @@ def model_metrics() -> dict[str, object]:
     for i, scene in enumerate(ETHUCY_SCENES):
         files[f"short_term/ethucy_{scene}.json"] = {"rounds": 3, "models": {"ynet": {
             "ade": stat(0.125 + 0.0625 * i, 0.005), "fde": stat(0.25 + 0.0625 * i, 0.01)}}}
+    files["baseline_seed_spread.json"] = seed_spread_record()
     for h in HORIZONS:
         if h != 30:  # the t_f = 30 point is the main Y-net's (ynet_eval.json)
             files[f"ynet_horizons/tf{h}.json"] = {"t_f": h, "rounds": 3, "main": four(1.5 * h + 3, 3.0 * h)}
         for j, model in enumerate(("constant_velocity", "sgan", "pecnet", "rpecnet")):
             files[f"baselines/{model}_tf{h}.json"] = baseline(model, h, (2.0 + j) * h)
     return files
+
+
+def seed_spread_record() -> dict:
+    """Stage baseline_seed_spread's file: PECNet at 50 s over seeds 0, 1, 2 and S-GAN at 5 s with
+    one seed (no spread)."""
+    def per_seed(seed, ade, fde, epoch):
+        return {"seed": seed, "ade": ade, "fde": fde, "ade_joint": ade, "fde_joint": fde + 1.0,
+                "round_std": {"ade": 1.75, "fde": 3.25}, "best_epoch": epoch,
+                "best_val_ade": 100.0 + epoch, "trained_epochs": 40, "trained_horizon": 50}
+    evaluation = {"split": "test", "k": 20, "rounds": 3, "seed": 0, "n_windows": 66}
+    pecnet = [per_seed(0, 190.25, 358.5, 23), per_seed(1, 142.5, 270.0, 31), per_seed(2, 160.0, 301.0, 9)]
+    return {"models": ["sgan", "pecnet", "rpecnet"], "horizons": [5, 50], "extra_seeds": [1, 2], "entries": [
+        {"model": "pecnet", "horizon": 50, "seeds": [0, 1, 2], "main_seed": 0, "evaluation": evaluation,
+         "over_training_seeds": {"ade": stat(164.25, 19.75), "fde": stat(309.875, 36.25)},
+         "main_round_std": {"ade": 1.75, "fde": 3.25}, "per_seed": pecnet},
+        {"model": "sgan", "horizon": 5, "seeds": [0], "main_seed": 0, "evaluation": evaluation,
+         "over_training_seeds": {"ade": stat(11.25, 0.0), "fde": stat(20.5, 0.0)},
+         "main_round_std": {"ade": 0.0625, "fde": 0.125}, "per_seed": [per_seed(0, 11.25, 20.5, 30)]}]}
 
 
 def write_metrics(folder: Path, files: dict[str, object], skip: tuple[str, ...] = ()) -> None:
@@ -607,6 +626,38 @@ def test_page_shows_the_params_dvc_lock_recorded_not_params_yaml(project):
     html = full_project(project).read_text()
     assert "unread_section" not in html
     assert "release_horizon" in html  # windows, as the lock's `windows` stage recorded it
+
+
+def seed_spread_rows(html: str) -> list[str]:
+    section = html.split('id="seed-spread"', 1)[1].split("<h2", 1)[0]
+    rows = re.findall(r"<tr>(.*?)</tr>", section, flags=re.S)
+    return [" ".join(re.sub(r"<[^>]+>", " ", row).split()) for row in rows]
+
+
+def test_training_seed_spread_table_beside_the_evaluation_round_spread(project):
+    html = full_project(project).read_text()
+    assert_well_formed(html)
+    rows = seed_spread_rows(html.replace("&plusmn;", "±"))
+    assert rows[1] == ("over training seeds over evaluation rounds over training seeds over evaluation rounds")
+    assert rows[2] == ("PECNet 50 s 164.2 ± 19.8 ± 1.75 309.9 ± 36.2 ± 3.25 "
+                       "seed 0: 190.2 / 358.5 (23, 123.0); seed 1: 142.5 / 270.0 (31, 131.0); "
+                       "seed 2: 160.0 / 301.0 (9, 109.0)")
+    assert rows[3].startswith("S-GAN 5 s 11.2 1 seed, no spread ± 0.06 20.5 1 seed, no spread ± 0.12")
+    # which spread each "±" is: said once, and on every comparison cell
+    text = " ".join(re.sub(r"<[^>]+>", " ", html.replace("&plusmn;", "±")).split())
+    assert ('Which spread a "±" is: in Tables 1-4 and Figures 4-5 it is the standard deviation over '
+            "seeded evaluation rounds (sampling one trained model again), never over training") in text
+    assert "evaluation (test split, K = 20, 3 rounds from seed 0) are the same" in text
+    cells = [" ".join(c["text"].split()) for c in comparison_cells(parse(html))]
+    spreads = [c for c in cells if "±" in c]
+    assert spreads and all(re.search(r"± \d+\.\d+ over 3 evaluation rounds", c) for c in spreads), spreads
+
+
+def test_no_seed_spread_file_is_explained(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics(), skip=("baseline_seed_spread.json",))
+    html = run_report(project).read_text()
+    section = html.split('id="seed-spread"', 1)[1].split("<h2", 1)[0]
+    assert "baseline_seed_spread.json missing" in section and "<table" not in section
 
 
 def test_a_single_round_shows_no_spread(project):

@@ -1,12 +1,14 @@
 """Training and scoring one baseline at one horizon: what the baseline stages share.
 
 `train` fits S-GAN or PECNet on a window table's `train` split (the epoch with the lowest
-min-over-K ADE on `val`, never `test`; stage `train_baseline`), `evaluate` scores any baseline with
+min-over-K ADE on `val`, never `test`) and `train_record` is what the stages `train_baseline` and
+`train_baseline_seed` do with it (one training seed each), `evaluate` scores any baseline with
 the shared metric over seeded rounds (stages `evaluate_baseline`, `evaluate_rpecnet`,
 `evaluate_constant_velocity`, `evaluate_pecnet_ka`, `evaluate_ind`), keeping every round's
 predictions where asked, `training_facts` reads what a checkpoint folder records about its
 training. `score_to_file` is what the long-term baseline stages do: the metrics file and the file of
-every test prediction (`pipeline.harness.predictions`). Checkpoints:
+every test prediction (`pipeline.harness.predictions`), or only the metrics for the extra training
+seeds (`evaluate_baseline_seed`, `evaluate_rpecnet_seed`). Checkpoints:
 `pipeline.harness.baselines.common`.
 Each model's settings are its config dataclass (sections `sgan` / `pecnet`, one per profile),
 chosen by `model_config`.
@@ -14,13 +16,16 @@ chosen by `model_config`.
 
 from __future__ import annotations
 
+import argparse
 import time
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import torch
 
-from pipeline.config import (EvaluateBaselineParams, RuntimeParams, WindowParams, load_profile,
-                             load_section)
+from pipeline.config import (EvaluateBaselineParams, RuntimeParams, TrainBaselineParams, WindowParams,
+                             load_profile, load_section)
 from pipeline.data.window_table import WindowArrays
 from pipeline.device import CPU, describe, select_device
 from pipeline.device import generator as seeded_generator
@@ -31,6 +36,18 @@ from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import write_json
 from pipeline.preemption import NEVER, Preemption
+
+
+def run_arguments(description: str, checkpoint_help: str) -> argparse.ArgumentParser:
+    """The command line the stages of one trained baseline at one horizon share: --model (S-GAN or
+    PECNet), --horizon, --table, --checkpoint-dir, --metrics; a stage adds its own."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--model", required=True, choices=baselines.TRAINABLE)
+    parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
+    parser.add_argument("--table", type=Path, required=True, help="window table (parquet)")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True, help=checkpoint_help)
+    parser.add_argument("--metrics", type=Path, required=True, help="JSON written")
+    return parser
 
 
 def model_config(model: str, params: dict):
@@ -55,6 +72,41 @@ def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: 
         "train_seconds": result.train_seconds,
         "seconds_per_epoch": result.train_seconds / max(result.epochs, 1),
     }
+
+
+def train_record(model: str, horizon: int, table: Path, checkpoint_dir: Path, params: dict,
+                 seed: int | None = None) -> dict:
+    """What the stages `train_baseline` (`seed` None: `train_baseline.seed`) and
+    `train_baseline_seed` (an extra training seed) do: `train` on `table` under
+    `train_baseline.threads`, `<model>.<profile>`, `windows.n_past` and `runtime` of `params`
+    (params.yaml as read). Returns the training facts with the settings they ran under (the layout
+    of `metrics/baselines/train_<model>_tf<H>.json`); raises `StopRequested` as `train` does."""
+    settings = load_section(TrainBaselineParams, "train_baseline", params)
+    seed = settings.seed if seed is None else seed
+    config = model_config(model, params)
+    n_past = load_section(WindowParams, "windows", params).n_past
+    runtime = load_section(RuntimeParams, "runtime", params)
+    torch.set_num_threads(settings.threads)
+    device = select_device(runtime.device)
+    print(f"train_baseline {model} t_f = {horizon}, seed {seed}: {describe(device)}", flush=True)
+    arrays = load_windows(table, n_past, horizon)
+    t0 = time.perf_counter()
+    with Preemption(runtime.max_minutes) as preemption:
+        facts = train(model, arrays, config, checkpoint_dir, seed, device, preemption)
+    return {"model": model, "horizon": horizon, "profile": params["profile"], "seed": seed,
+            "threads": settings.threads, "device": describe(device),
+            "wall_seconds": time.perf_counter() - t0, **facts}
+
+
+def validation_curve(checkpoint_dir: Path) -> list[float]:
+    """Validation ADE per epoch (px), as the folder's `last.pt` recorded it: the curve the kept
+    epoch was selected on (its minimum is `best_val_ade`)."""
+    return [float(epoch["val_ade"]) for epoch in fit_result_from(checkpoint_dir).history]
+
+
+def training_seed(checkpoint_dir: Path) -> int:
+    """The seed the model kept in `checkpoint_dir` was trained with (its `best.pt` records it)."""
+    return int(load_checkpoint(Path(checkpoint_dir) / "best.pt")["meta"]["seed"])
 
 
 def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device: torch.device = CPU,
@@ -115,20 +167,22 @@ def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path | No
 
 
 def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, metrics: Path,
-                  predictions: Path, params: dict) -> None:
+                  predictions: Path | None, params: dict, extra: Mapping[str, Any] | None = None) -> None:
     """What the stages `evaluate_baseline`, `evaluate_rpecnet` and `evaluate_constant_velocity` do:
     `score_split` under `evaluate_baseline` (its threads), `windows.n_past` and `runtime.device` of
-    `params` (params.yaml as read), written to `metrics`, and every round's test predictions
-    written to `predictions` (no weights: these models give none)."""
+    `params` (params.yaml as read), written to `metrics` (with `extra`'s keys after the rest), and
+    every round's test predictions written to `predictions` (no weights: these models give none;
+    None: not kept, as for the extra training seeds)."""
     evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
     n_past = load_section(WindowParams, "windows", params).n_past
     torch.set_num_threads(evaluation.threads)
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
     print(f"evaluate_baseline {model} t_f = {horizon}: {describe(device)}", flush=True)
     scores, kept = score_split(model, table, horizon, checkpoint_dir, n_past, evaluation, device)
-    kept.write(predictions, {
-        "model": model, "benchmark": long_term_benchmark(table), "unit": "px",
-        "split": evaluation.split, "k": evaluation.k, "horizon": horizon,
-        "window_table": str(table),
-        "checkpoint_dir": None if checkpoint_dir is None else str(checkpoint_dir)})
-    write_json(scores, metrics)
+    if predictions is not None:
+        kept.write(predictions, {
+            "model": model, "benchmark": long_term_benchmark(table), "unit": "px",
+            "split": evaluation.split, "k": evaluation.k, "horizon": horizon,
+            "window_table": str(table),
+            "checkpoint_dir": None if checkpoint_dir is None else str(checkpoint_dir)})
+    write_json({**scores, **(extra or {})}, metrics)

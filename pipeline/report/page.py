@@ -6,8 +6,9 @@ explained absence, never a blank or a made-up number), the paper's values
 
 - `reports/index.html` (jinja2, no scripts, no network): Tables 1-4 cell by cell (paper, ours as
   mean and spread over evaluation rounds, relative difference coloured by size), the horizon and
-  K_a figures, the qualitative figure, "Beyond the paper's tables" (`pipeline.report.beyond`: the
-  metrics of stage `score_predictions`), the data audit and counts, segmentation scores, provenance;
+  K_a figures, the baselines' training-seed spread, the qualitative figure, "Beyond the paper's
+  tables" (`pipeline.report.beyond`: the metrics of stage `score_predictions`), the data audit and
+  counts, segmentation scores, provenance;
 - its figures as PNG files (matplotlib, Agg) in `reports/figures/report/`;
 - the figure series as JSON for `dvc plots` in `reports/plots/`.
 
@@ -21,6 +22,9 @@ results is shown as its reason):
 - `ynet_horizons/tf<H>.json`: {"main": {...}} or {"not_run_reason": "..."} (t_f = 30: ynet_eval.json);
   `baselines/<model>_tf<H>.json`: {"ade": {"mean", "std"}, "fde", ..., "rounds", "k", "horizon"};
   `baselines/pecnet_ka.json`: [{"k_a", "k", "ade": {"mean", "std"}, "fde"}]
+- `baseline_seed_spread.json` (`pipeline.harness.seed_spread`): {"extra_seeds", "entries": [{"model",
+  "horizon", "evaluation", "over_training_seeds": {"ade": {"mean", "std"}, ...}, "main_round_std":
+  {"ade", "fde"}, "per_seed": [{"seed", "ade", "fde", "best_epoch", "best_val_ade"}]}]}
 - `short_term/sdd.json`: {"rounds", "models": {<model>: {"k20"|"k5": {"ade": {"mean", "std"}, "fde"}}}}
 - `short_term/ethucy_<scene>.json`: {"rounds", "models": {<model>: {"ade": {...}, "fde": {...}}}}
 - `ind_benchmark.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
@@ -613,6 +617,62 @@ def plot_qualitative(examples: Iterable[Mapping[str, np.ndarray]], path: Path) -
 
 
 # ---------------------------------------------------------------------------------------------
+# Training-seed spread of the baselines
+
+
+SEED_SPREAD_FILE = "baseline_seed_spread.json"
+
+
+@dataclass(frozen=True)
+class SeedSpreadRow:
+    """One baseline at one horizon: ADE / FDE over training seeds (mean and std, `Measured` with
+    the seed count as its rounds), the main model's std over evaluation rounds, and each seed's
+    (seed, ADE, FDE, kept epoch, its validation ADE)."""
+    model: str
+    horizon: int
+    ade: Measured | Absent
+    fde: Measured | Absent
+    ade_round_std: float | None
+    fde_round_std: float | None
+    per_seed: tuple[tuple[Any, Any, Any, Any, Any], ...]
+
+
+def seed_spread_row(entry: Any, source: str) -> SeedSpreadRow | Absent:
+    """A row from one entry of `baseline_seed_spread.json`, or why it cannot be one."""
+    if not isinstance(entry, dict) or not all(key in entry for key in ("model", "horizon", "per_seed")):
+        return Absent(f"{source}: an entry without model, horizon or per_seed", "invalid")
+    over, main = entry.get("over_training_seeds") or {}, entry.get("main_round_std") or {}
+    seeds = entry["per_seed"] if isinstance(entry["per_seed"], list) else []
+    where = f"{source}: {entry['model']} t_f = {entry['horizon']}"
+    per_seed = tuple((s.get("seed"), s.get("ade"), s.get("fde"), s.get("best_epoch"), s.get("best_val_ade"))
+                     for s in seeds if isinstance(s, dict))
+    return SeedSpreadRow(
+        model=dict(HORIZON_MODELS).get(entry["model"], str(entry["model"])), horizon=entry["horizon"],
+        ade=as_measured(over.get("ade"), len(per_seed), f"{where}: ade over training seeds"),
+        fde=as_measured(over.get("fde"), len(per_seed), f"{where}: fde over training seeds"),
+        ade_round_std=main.get("ade") if is_number(main.get("ade")) else None,
+        fde_round_std=main.get("fde") if is_number(main.get("fde")) else None,
+        per_seed=per_seed)
+
+
+def seed_spread_section(store: MetricsStore) -> dict[str, Any]:
+    """The table "Training-seed spread" (stage `baseline_seed_spread`), or why there is none."""
+    record = store.record(SEED_SPREAD_FILE)
+    none = {"absent": None, "rows": [], "problems": [], "extra_seeds": None, "evaluation": {}}
+    if isinstance(record, Absent):
+        return {**none, "absent": record}
+    if not isinstance(record, dict) or not isinstance(record.get("entries"), list):
+        return {**none, "absent": Absent(f"{store.where(SEED_SPREAD_FILE)} has no list entries", "invalid")}
+    found = [seed_spread_row(entry, store.where(SEED_SPREAD_FILE)) for entry in record["entries"]]
+    evaluation = next((e["evaluation"] for e in record["entries"] if isinstance(e, dict)
+                       and isinstance(e.get("evaluation"), dict)
+                       and {"split", "k", "rounds", "seed"} <= set(e["evaluation"])), {})
+    return {**none, "rows": [row for row in found if isinstance(row, SeedSpreadRow)],
+            "problems": [row.reason for row in found if isinstance(row, Absent)],
+            "extra_seeds": record.get("extra_seeds"), "evaluation": evaluation}
+
+
+# ---------------------------------------------------------------------------------------------
 # Data and segmentation sections
 
 
@@ -1096,6 +1156,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         "tables": tables,
         **figures,
         "beyond": beyond_section(store, LONG_TERM_TF, HORIZON_MODELS, MODEL_COLOURS, slot),
+        "seed_spread": seed_spread_section(store),
         "data": data_section(store, inputs.scene_counts),
         "n_test_videos": len(TEST_VIDEOS),
         "segmentation": {**segmentation_scores(store),
