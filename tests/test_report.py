@@ -24,6 +24,7 @@ import pytest
 import yaml
 
 from pipeline.report import page as report
+from pipeline.stages import animations as animations_stage
 from pipeline.stages import report as report_stage
 from pipeline.config import ParamsError, from_dict
 
@@ -188,17 +189,25 @@ def write_metrics(folder: Path, files: dict[str, object], skip: tuple[str, ...] 
 
 
 def write_qualitative(path: Path, n: int = 3) -> None:
+    """`n` windows as the Y-net evaluation stores them: a smooth scene, a heatmap blob per goal,
+    20 straight predicted paths to those goals (smooth, so the animations encode in a blink)."""
     rng = np.random.default_rng(0)
     arrays = {}
+    h, w = 120, 160
+    rows, cols = np.mgrid[0:h, 0:w]
     for i in range(n):
-        h, w = 120, 160
-        arrays[f"scene_image_{i}"] = rng.integers(0, 255, (h, w, 3), dtype=np.uint8)
-        arrays[f"past_{i}"] = np.stack([np.linspace(10, 40, 5), np.linspace(20, 30, 5)], 1)
+        goals = rng.random((20, 2)) * [w, h]
+        heatmap = sum(np.exp(-((cols - x) ** 2 + (rows - y) ** 2) / 50.0) for x, y in goals)
+        past = np.stack([np.linspace(10, 40, 5), np.linspace(20, 30, 5)], 1)
+        arrays[f"scene_image_{i}"] = np.stack([rows * 2, cols, np.full_like(rows, 90 + 40 * i)],
+                                              -1).astype(np.uint8)
+        arrays[f"past_{i}"] = past
         arrays[f"future_{i}"] = np.stack([np.linspace(45, 140, 30), np.linspace(30, 90, 30)], 1)
-        arrays[f"goal_heatmap_{i}"] = rng.random((h, w))
-        arrays[f"sampled_goals_{i}"] = rng.random((20, 2)) * [w, h]
-        arrays[f"trajectory_heatmap_{i}"] = rng.random((h, w))
-        arrays[f"predictions_{i}"] = rng.random((20, 30, 2)) * [w, h]
+        arrays[f"goal_heatmap_{i}"] = heatmap
+        arrays[f"sampled_goals_{i}"] = goals
+        arrays[f"trajectory_heatmap_{i}"] = heatmap
+        steps = np.linspace(1 / 30, 1, 30)[None, :, None]  # (1, 30, 1)
+        arrays[f"predictions_{i}"] = past[-1] + steps * (goals[:, None] - past[-1])  # (20, 30, 2)
     arrays["scene_id_0"] = np.array("gates_2 window 3")
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez(path, **arrays)
@@ -240,17 +249,30 @@ def run_report(root: Path) -> Path:
         "--segmentation-figures", str(root / "reports/figures/segmentation"),
         "--qualitative", str(root / "data/ynet_predictions/qualitative.npz"),
         "--manifests", str(root / "manifests"), "--dvc-lock", str(root / "dvc.lock"),
-        "--out", str(out), "--figures", str(root / "reports/figures/report"),
+        "--animations", str(root / "reports/figures/animations"), "--out", str(out), "--figures", str(root / "reports/figures/report"),
         "--plots", str(root / "reports/plots"), "--headline", str(root / "reports/headline")])
     return out
 
 
-def full_project(root: Path) -> Path:
+def run_animations(root: Path) -> None:
+    """Stage `animations` on a one-window long-term file (each window takes about a second) and a
+    short-term one not yet written."""
+    write_qualitative(root / "data/animated.npz", n=1)
+    animations_stage.main([
+        "--qualitative", f"long_term={root / 'data/animated.npz'}",
+        "--qualitative", f"short_term_sdd={root / 'data/predictions/short_term/sdd/ynet_qualitative.npz'}",
+        "--out", str(root / "reports/figures/animations")])
+
+
+def full_project(root: Path, animations: bool = False) -> Path:
+    """Every input of the report; with `animations`, stage animations' output too."""
     write_metrics(root / "metrics", data_metrics() | model_metrics())
     write_qualitative(root / "data/ynet_predictions/qualitative.npz")
     for video in ("coupa_0", "gates_2", "quad_3"):
         write_png(root / f"reports/figures/segmentation/labels/{video}.png", (200, 160, 40))
         write_png(root / f"reports/figures/segmentation/predictions/{video}.png", (60, 160, 40))
+    if animations:
+        run_animations(root)
     return run_report(root)
 
 
@@ -478,6 +500,7 @@ def test_only_data_stages_give_a_valid_page(project):
     assert {c["attrs"]["data-kind"] for c in comparison_cells(page)} == {"absent", "paper-only"}
     assert "No figure: no model has a measured horizon yet" in html
     assert "qualitative.npz missing" in html
+    assert "No animations: stage not yet run: " in html and "animations/index.json missing" in html
     assert "segmentation.json missing" in html
     assert "Bias of horizons" in html
     assert json.loads((project / "reports/plots/horizon_ade.json").read_text()) == []
@@ -507,6 +530,27 @@ def test_a_broken_qualitative_file_is_reported(project, tmp_path):
     assert isinstance(loaded, report.Absent) and "missing goal_heatmap" in loaded.reason
 
 
+def test_animations_are_shown_per_benchmark_and_a_missing_one_says_so(project):
+    html = full_project(project, animations=True).read_text()
+    assert_well_formed(html)
+    sources = [src for src in parse(html).images if src.endswith(".webp")]
+    assert sources == ["figures/animations/long_term_0.webp"]
+    section = html[html.index('<h2 id="animations">'):html.index('<h2 id="data">')]
+    assert "<h3>SDD long-term, 1 s a step</h3>" in section
+    assert "gates_2 window 3: 5 observed, 30 predicted steps, K = 20" in section
+    assert ("<h3>SDD short-term (TrajNet), 0.4 s a step</h3>\n<p class=\"absent-note\">Not shown: "
+            f"{project / 'data/predictions/short_term/sdd/ynet_qualitative.npz'} missing") in section
+
+    folder = project / "reports/figures/animations"
+    shown = report.animation_section(folder, project / "reports")["benchmarks"][0]["windows"]
+    assert [(w["src"], w["found"]) for w in shown] == [("figures/animations/long_term_0.webp", True)]
+    (folder / "long_term_0.webp").unlink()
+    assert "long_term_0.webp missing: re-run stage animations" in run_report(project).read_text()
+    (folder / "index.json").write_text('{"benchmarks": [{"windows": 3}]}')
+    absent = report.animation_section(folder, project / "reports")["absent"]
+    assert absent.kind == "invalid" and "index.json: not the animations index (TypeError" in absent.reason
+
+
 # ---------------------------------------------------------------------------------------------
 # A real browser
 
@@ -516,6 +560,9 @@ window.addEventListener('load', function () {
   var broken = imgs.filter(function (i) { return !(i.complete && i.naturalWidth > 0); })
                    .map(function (i) { return i.getAttribute('src'); });
   document.body.setAttribute('data-images', String(imgs.length));
+  var loaded = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; })
+                   .map(function (i) { return i.getAttribute('src'); });
+  document.body.setAttribute('data-loaded', JSON.stringify(loaded));
   document.body.setAttribute('data-broken', JSON.stringify(broken));
 });
 </script>"""
@@ -544,25 +591,30 @@ def run_chromium(page: Path, *args: str, profile: Path) -> str:
     return done.stdout
 
 
-def image_report(page: Path, profile: Path) -> tuple[int, list[str]]:
-    """(images on the page, those that did not load), measured by the browser after load."""
+def image_report(page: Path, profile: Path) -> tuple[int, list[str], list[str]]:
+    """(images on the page, those that did not load, those that did), measured by the browser
+    after load."""
     check = page.with_name("check.html")
     check.write_text(page.read_text().replace("</body>", CHECK_SCRIPT + "</body>"))
     dom = run_chromium(check, "--dump-dom", profile=profile)
     body = re.search(r"<body([^>]*)>", dom)
     assert body, dom[:500]
     n = re.search(r'data-images="(\d+)"', body.group(1))
-    broken = re.search(r"data-broken=\"([^\"]*)\"", body.group(1))
-    assert n and broken, f"the load check did not run: {body.group(0)[:300]}"
-    return int(n.group(1)), json.loads(broken.group(1).replace("&quot;", '"'))
+    broken, loaded = (re.search(rf"data-{name}=\"([^\"]*)\"", body.group(1)) for name in ("broken", "loaded"))
+    assert n and broken and loaded, f"the load check did not run: {body.group(0)[:300]}"
+    return (int(n.group(1)), *(json.loads(m.group(1).replace("&quot;", '"')) for m in (broken, loaded)))
 
 
 def test_page_renders_in_headless_chromium(project, tmp_path):
     from PIL import Image
-    page = full_project(project)
+    page = full_project(project, animations=True)
     profile = tmp_path / "chromium-profile"
-    n, broken = image_report(page, profile)
-    assert n >= 3 + 6 and broken == []  # three report figures, six segmentation figures
+    n, broken, loaded = image_report(page, profile)
+    assert n >= 3 + 6 + 1 and broken == []  # three report figures, six segmentation figures, an animation
+    animated = [src for src in loaded if src.startswith("figures/animations/")]
+    assert animated == ["figures/animations/long_term_0.webp"]
+    for src in animated:
+        assert Image.open(page.parent / src).n_frames > 1
 
     shot = tmp_path / "shot.png"
     run_chromium(page, f"--screenshot={shot}", "--window-size=1280,2400", profile=profile)
@@ -571,7 +623,7 @@ def test_page_renders_in_headless_chromium(project, tmp_path):
     assert pixels.std() > 10 and (pixels < 200).mean() > 0.02, "the screenshot is blank"
 
     (project / "reports/figures/report/horizon_ade.png").unlink()  # the check must catch this
-    n, broken = image_report(page, profile)
+    n, broken, _ = image_report(page, profile)
     assert broken == ["figures/report/horizon_ade.png"]
 
 

@@ -10,7 +10,9 @@ explained absence, never a blank or a made-up number), the paper's values
   tables" (`pipeline.report.beyond`: the metrics of stage `score_predictions`), the data audit and
   counts, segmentation scores, provenance;
 - its figures as PNG files (matplotlib, Agg) in `reports/figures/report/`;
-- the figure series as JSON for `dvc plots` in `reports/plots/`.
+- the figure series as JSON for `dvc plots` in `reports/plots/`;
+- a section "Predictions, step by step" showing the animations stage `animations` wrote (its
+  `index.json` in `--animations`; linked where they are, not copied), or why there are none.
 
 Everything is written to a temporary path and renamed, so an interrupted run leaves the previous
 report intact.
@@ -1068,6 +1070,7 @@ class Inputs:
     repo: Path = field(default_factory=Path.cwd)
     own_outputs: tuple[str, ...] = ()  # the report's outputs, relative to `repo`
     stage_times: Path | None = None  # tools/timed_repro.py's record of `make repro`
+    animations: Path | None = None  # stage animations' folder (index.json and the animations)
 
 
 @dataclass(frozen=True)
@@ -1102,6 +1105,24 @@ def figure_sections(paper: Mapping, store: MetricsStore, horizons: list[int], qu
     }
     plots = {"horizon_ade.json": plot_rows(h_series, "t_f"), "ka_ade.json": plot_rows(k_series, "k_a")}
     return sections, plots
+
+
+def animation_section(folder: Path | None, html_dir: Path) -> dict[str, Any]:
+    """Stage `animations`' benchmarks as its index.json lists them, each window's <img> src
+    relative to the page (the animations stay in the stage's folder, beside the page's)."""
+    if folder is None:
+        return {"absent": Absent("no --animations folder given"), "benchmarks": []}
+    index = read_json(folder / "index.json")
+    if isinstance(index, Absent):
+        return {"absent": index, "benchmarks": []}
+    try:
+        benchmarks = [{**entry, "windows": [
+            {**w, "src": rel_src(folder / w["file"], html_dir), "found": (folder / w["file"]).is_file()}
+            for w in entry["windows"]]} for entry in index["benchmarks"]]
+    except (KeyError, TypeError) as e:
+        return {"absent": Absent(f"{(folder / 'index.json').as_posix()}: not the animations index "
+                                 f"({type(e).__name__}: {e})", "invalid"), "benchmarks": []}
+    return {"absent": None, "benchmarks": benchmarks}
 
 
 def data_section(store: MetricsStore, scene_counts: Path) -> dict[str, Any]:
@@ -1157,6 +1178,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         **figures,
         "beyond": beyond_section(store, LONG_TERM_TF, HORIZON_MODELS, MODEL_COLOURS, slot),
         "seed_spread": seed_spread_section(store),
+        "animations": animation_section(inputs.animations, html_dir),
         "data": data_section(store, inputs.scene_counts),
         "n_test_videos": len(TEST_VIDEOS),
         "segmentation": {**segmentation_scores(store),

@@ -10,8 +10,8 @@ Also writes `--headline`, the small ADE / FDE files `dvc metrics show` prints. P
         --scene-counts reports/data/windows_per_scene.json \
         --segmentation-figures reports/figures/segmentation/predictions \
         --qualitative data/ynet_predictions/qualitative.npz --manifests manifests --dvc-lock dvc.lock \
-        --out reports/index.html --figures reports/figures/report --plots reports/plots \
-        --headline reports/headline
+        --animations reports/figures/animations --out reports/index.html \
+        --figures reports/figures/report --plots reports/plots --headline reports/headline
 """
 
 from __future__ import annotations
@@ -35,6 +35,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--dvc-lock", type=Path, default=Path("dvc.lock"))
     parser.add_argument("--stage-times", type=Path, default=Path("reports/stage_times.json"),
                         help="tools/timed_repro.py's stage times (shown when present)")
+    parser.add_argument("--animations", type=Path, default=Path("reports/figures/animations"),
+                        help="stage animations' folder (index.json and the animated windows)")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"),
                         help="read for its `report` section only")
     parser.add_argument("--out", type=Path, required=True, help="the HTML page written")
@@ -49,7 +51,7 @@ def main(argv: list[str] | None = None) -> None:
                                      args.stage_times))  # the stage times: make repro writes them
     inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.segmentation_figures,
                     args.qualitative, args.manifests, own_outputs=own_outputs,
-                    stage_times=args.stage_times)
+                    stage_times=args.stage_times, animations=args.animations)
     write_report(inputs, read_lock(args.dvc_lock), report_params, args.out, args.figures,
                  args.plots, args.headline)
 
