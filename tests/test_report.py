@@ -705,6 +705,54 @@ def test_training_seed_spread_table_beside_the_evaluation_round_spread(project):
     assert spreads and all(re.search(r"± \d+\.\d+ over 3 evaluation rounds", c) for c in spreads), spreads
 
 
+def ynet_spread_entry(not_run: bool) -> dict:
+    """Y-net's entry of baseline_seed_spread.json: seeds 0, 1, 2 (paper), or the main seed alone
+    with the reason (cpu)."""
+    def per_seed(seed, ade, fde, epoch):
+        return {"seed": seed, "ade": ade, "fde": fde, "ade_joint": ade, "fde_joint": fde + 1.0,
+                "round_std": {"ade": 0.25, "fde": 1.5}, "best_epoch": epoch,
+                "best_val_ade": 110.0 + epoch, "trained_epochs": 300, "trained_horizon": 30}
+    entry = {"model": "ynet", "horizon": 30, "seeds": [0, 1, 2], "main_seed": 0,
+             "evaluation": {"t_f": 30, "n_windows": 382, "rounds": 3, "k_e": 20, "k_a": 1},
+             "over_training_seeds": {"ade": stat(52.0, 1.25), "fde": stat(75.5, 2.5)},
+             "main_round_std": {"ade": 0.25, "fde": 1.5},
+             "per_seed": [per_seed(0, 50.75, 72.25, 28), per_seed(1, 53.5, 77.0, 31),
+                          per_seed(2, 51.75, 77.25, 25)]}
+    if not not_run:
+        return entry
+    del entry["over_training_seeds"]
+    return {**entry, "seeds": [0], "per_seed": entry["per_seed"][:1],
+            "not_run_reason": "Y-net is not trained with extra training seeds in the cpu profile "
+                              "(its extra seeds here: none): on 2 CPU cores it takes 30 min"}
+
+
+@pytest.mark.parametrize("not_run", [False, True])
+def test_ynet_row_of_the_training_seed_spread(project, not_run):
+    files = data_metrics() | model_metrics()
+    spread = files["baseline_seed_spread.json"]
+    spread["entries"].insert(0, ynet_spread_entry(not_run))
+    spread.update(models=["ynet", *spread["models"]], ynet_extra_seeds=[] if not_run else [1, 2])
+    write_metrics(project / "metrics", files)
+    html = run_report(project).read_text()
+    assert_well_formed(html)
+    rows = seed_spread_rows(html.replace("&plusmn;", "±"))
+    text = " ".join(re.sub(r"<[^>]+>", " ", html.replace("&plusmn;", "±")).split())
+    if not_run:
+        assert rows[2] == ("Y-net 30 s not run: Y-net is not trained with extra training seeds in the "
+                           "cpu profile (its extra seeds here: none): on 2 CPU cores it takes 30 min "
+                           "seed 0: 50.8 / 72.2 (28, 138.0)")
+        assert "The main Y-net (t_f = 30 s, the release's windows) likewise: initial weights" in text
+    else:
+        assert rows[2] == ("Y-net 30 s 52.0 ± 1.2 ± 0.25 75.5 ± 2.5 ± 1.50 "
+                           "seed 0: 50.8 / 72.2 (28, 138.0); seed 1: 53.5 / 77.0 (31, 141.0); "
+                           "seed 2: 51.8 / 77.2 (25, 135.0)")
+        assert "The main Y-net (t_f = 30 s, the release's windows) likewise with seeds 1, 2" in text
+    assert ("scored in the main setting of Table 3 (TTST + CWS, K_e = 20, K_a = 1, 3 rounds) with the "
+            "same round seeds") in text
+    assert rows[3].startswith("PECNet 50 s 164.2 ± 19.8 ± 1.75")  # the baselines' rows follow
+    assert "evaluation (test split, K = 20, 3 rounds from seed 0) are the same" in text
+
+
 def test_no_seed_spread_file_is_explained(project):
     write_metrics(project / "metrics", data_metrics() | model_metrics(), skip=("baseline_seed_spread.json",))
     html = run_report(project).read_text()

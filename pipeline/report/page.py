@@ -6,7 +6,7 @@ explained absence, never a blank or a made-up number), the paper's values
 
 - `reports/index.html` (jinja2, no scripts, no network): Tables 1-4 cell by cell (paper, ours as
   mean and spread over evaluation rounds, relative difference coloured by size), the horizon and
-  K_a figures, the baselines' training-seed spread, the qualitative figure, "Beyond the paper's
+  K_a figures, the training-seed spread (baselines and Y-net), the qualitative figure, "Beyond the paper's
   tables" (`pipeline.report.beyond`: the metrics of stage `score_predictions`), the data audit and
   counts, segmentation scores, provenance;
 - its figures as PNG files (matplotlib, Agg) in `reports/figures/report/`;
@@ -24,9 +24,11 @@ results is shown as its reason):
 - `ynet_horizons/tf<H>.json`: {"main": {...}} or {"not_run_reason": "..."} (t_f = 30: ynet_eval.json);
   `baselines/<model>_tf<H>.json`: {"ade": {"mean", "std"}, "fde", ..., "rounds", "k", "horizon"};
   `baselines/pecnet_ka.json`: [{"k_a", "k", "ade": {"mean", "std"}, "fde"}]
-- `baseline_seed_spread.json` (`pipeline.harness.seed_spread`): {"extra_seeds", "entries": [{"model",
-  "horizon", "evaluation", "over_training_seeds": {"ade": {"mean", "std"}, ...}, "main_round_std":
-  {"ade", "fde"}, "per_seed": [{"seed", "ade", "fde", "best_epoch", "best_val_ade"}]}]}
+- `baseline_seed_spread.json` (`pipeline.harness.seed_spread`): {"extra_seeds", "ynet_extra_seeds",
+  "entries": [{"model", "horizon", "evaluation", "over_training_seeds": {"ade": {"mean", "std"}, ...},
+  "main_round_std": {"ade", "fde"}, "per_seed": [{"seed", "ade", "fde", "best_epoch",
+  "best_val_ade"}]}]}; an entry with "not_run_reason" (Y-net where the profile trains no extra seed)
+  has no "over_training_seeds"
 - `short_term/sdd.json`: {"rounds", "models": {<model>: {"k20"|"k5": {"ade": {"mean", "std"}, "fde"}}}}
 - `short_term/ethucy_<scene>.json`: {"rounds", "models": {<model>: {"ade": {...}, "fde": {...}}}}
 - `ind_benchmark.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
@@ -619,7 +621,7 @@ def plot_qualitative(examples: Iterable[Mapping[str, np.ndarray]], path: Path) -
 
 
 # ---------------------------------------------------------------------------------------------
-# Training-seed spread of the baselines
+# Training-seed spread of the baselines and the main Y-net
 
 
 SEED_SPREAD_FILE = "baseline_seed_spread.json"
@@ -627,9 +629,10 @@ SEED_SPREAD_FILE = "baseline_seed_spread.json"
 
 @dataclass(frozen=True)
 class SeedSpreadRow:
-    """One baseline at one horizon: ADE / FDE over training seeds (mean and std, `Measured` with
+    """One model at one horizon: ADE / FDE over training seeds (mean and std, `Measured` with
     the seed count as its rounds), the main model's std over evaluation rounds, and each seed's
-    (seed, ADE, FDE, kept epoch, its validation ADE)."""
+    (seed, ADE, FDE, kept epoch, its validation ADE); or, with `not_run`, why no extra seed was
+    trained (Y-net in the `cpu` profile), the main seed's values still listed."""
     model: str
     horizon: int
     ade: Measured | Absent
@@ -637,6 +640,7 @@ class SeedSpreadRow:
     ade_round_std: float | None
     fde_round_std: float | None
     per_seed: tuple[tuple[Any, Any, Any, Any, Any], ...]
+    not_run: str | None = None
 
 
 def seed_spread_row(entry: Any, source: str) -> SeedSpreadRow | Absent:
@@ -648,6 +652,12 @@ def seed_spread_row(entry: Any, source: str) -> SeedSpreadRow | Absent:
     where = f"{source}: {entry['model']} t_f = {entry['horizon']}"
     per_seed = tuple((s.get("seed"), s.get("ade"), s.get("fde"), s.get("best_epoch"), s.get("best_val_ade"))
                      for s in seeds if isinstance(s, dict))
+    if entry.get("not_run_reason"):
+        why = str(entry["not_run_reason"])
+        return SeedSpreadRow(
+            model=dict(HORIZON_MODELS).get(entry["model"], str(entry["model"])), horizon=entry["horizon"],
+            ade=Absent(why, "status"), fde=Absent(why, "status"), ade_round_std=None,
+            fde_round_std=None, per_seed=per_seed, not_run=why)
     return SeedSpreadRow(
         model=dict(HORIZON_MODELS).get(entry["model"], str(entry["model"])), horizon=entry["horizon"],
         ade=as_measured(over.get("ade"), len(per_seed), f"{where}: ade over training seeds"),
@@ -660,7 +670,8 @@ def seed_spread_row(entry: Any, source: str) -> SeedSpreadRow | Absent:
 def seed_spread_section(store: MetricsStore) -> dict[str, Any]:
     """The table "Training-seed spread" (stage `baseline_seed_spread`), or why there is none."""
     record = store.record(SEED_SPREAD_FILE)
-    none = {"absent": None, "rows": [], "problems": [], "extra_seeds": None, "evaluation": {}}
+    none = {"absent": None, "rows": [], "problems": [], "extra_seeds": None, "evaluation": {},
+            "ynet_extra_seeds": None, "ynet_evaluation": {}}
     if isinstance(record, Absent):
         return {**none, "absent": record}
     if not isinstance(record, dict) or not isinstance(record.get("entries"), list):
@@ -669,9 +680,13 @@ def seed_spread_section(store: MetricsStore) -> dict[str, Any]:
     evaluation = next((e["evaluation"] for e in record["entries"] if isinstance(e, dict)
                        and isinstance(e.get("evaluation"), dict)
                        and {"split", "k", "rounds", "seed"} <= set(e["evaluation"])), {})
+    ynet_evaluation = next((e["evaluation"] for e in record["entries"] if isinstance(e, dict)
+                            and e.get("model") == "ynet" and isinstance(e.get("evaluation"), dict)
+                            and {"k_e", "k_a", "rounds"} <= set(e["evaluation"])), {})
     return {**none, "rows": [row for row in found if isinstance(row, SeedSpreadRow)],
             "problems": [row.reason for row in found if isinstance(row, Absent)],
-            "extra_seeds": record.get("extra_seeds"), "evaluation": evaluation}
+            "extra_seeds": record.get("extra_seeds"), "evaluation": evaluation,
+            "ynet_extra_seeds": record.get("ynet_extra_seeds"), "ynet_evaluation": ynet_evaluation}
 
 
 # ---------------------------------------------------------------------------------------------
