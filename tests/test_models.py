@@ -1,28 +1,37 @@
 """The contract of a registered long-term model (`pipeline.models`, README "Your model here"): the
 registry line, what the harness shows the model and checks of what it returns, constant velocity
-through the contract, the DVC stages a registry line gives."""
+through the contract, the DVC stages a registry line gives, and a toy model registered in a
+temporary copy of the repository, run by `dvc repro` and found in the report."""
 
 from __future__ import annotations
 
 import json
+import os
+import re
+import shutil
+import subprocess
 import sys
+import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 from pipeline.config import ModelEntry, ParamsError, load_models, read_params
 from pipeline.data.window_table import conform
 from pipeline.harness import baseline_runs
 from pipeline.harness.model_runs import FIT_FACTS, fit_to_workdir, predict_to_files
-from pipeline.harness.predictions import read_predictions
+from pipeline.harness.predictions import read_predictions, write_no_predictions
 from pipeline.io import write_parquet
 from pipeline.models import WindowSet, check_predictions, load_model, model_file
+from ynet.segmentation import CLASS_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
 N_PAST = 5
-SCENES = ("gates_2", "hyang_0")  # two SDD videos (scales below, labels written per test)
+SCENES = ("gates_2", "hyang_0")  # two SDD videos (their masks and scales: `write_scene_inputs`)
 
 
 def horizon_table(horizon: int, per_split: dict[str, int], seed: int = 0) -> pd.DataFrame:
@@ -297,3 +306,136 @@ def test_every_registered_model_has_a_fit_and_a_predict_stage_per_horizon():
             declared = {k for p in stage.deps if hasattr(p, "params") for k in p.params}
             assert {f"models.{name}.class", f"models.{name}.settings"} <= declared
             assert not any(k == "models" or k == f"models.{name}" for k in declared)
+
+
+# ---------------------------------------------------------------------------------------------
+# End to end: a toy model registered in a copy of the repository, dvc repro, the report
+
+
+TOY = '''"""Walks on at the mean speed of the training futures, along the last observed heading, each
+sample turned by a seeded random angle: a toy model for tests/test_models.py."""
+
+import json
+
+import numpy as np
+
+
+class MeanSpeed:
+    def __init__(self, settings):
+        self.spread = float(settings["spread"])
+
+    def fit(self, train, val, workdir, seed):
+        speed = np.linalg.norm(np.diff(train.future, axis=1), axis=-1).mean()
+        (workdir / "speed.json").write_text(json.dumps({"speed": float(speed)}))
+
+    def predict(self, test, k, workdir, seed):
+        speed = json.loads((workdir / "speed.json").read_text())["speed"]
+        last = test.past[:, -1] - test.past[:, -2]
+        heading = np.arctan2(last[:, 1], last[:, 0])[:, None]
+        angle = heading + np.random.default_rng(seed).normal(0, self.spread, (len(test), k))
+        step = speed * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+        steps = np.arange(1, test.n_future + 1)[None, None, :, None]
+        return test.past[:, None, -1:] + steps * step[:, :, None]
+'''
+TOY_LINE = ('  mean_speed: {class: MeanSpeed, label: Mean-speed walker, colour: "#17becf", '
+            'settings: {spread: 0.2}}\n')
+
+
+def tracked_files() -> list[str]:
+    out = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard"],
+                         cwd=REPO, capture_output=True, text=True, check=True).stdout
+    return [p for p in out.splitlines() if (REPO / p).is_file()]
+
+
+def write_scene_inputs(repo: Path, horizons: list[int]) -> None:
+    """What score_predictions reads besides the predictions: the horizon tables, the release's
+    table, hand-label masks and SDD's scales for the two fixture videos."""
+    for h in horizons:
+        write_parquet(horizon_table(h, {"train": 8, "val": 4, "test": 6}, seed=h),
+                      repo / f"data/horizon_windows/tf{h}.parquet")
+    release = horizon_table(30, {"test": 6}, seed=30)
+    write_parquet(release.assign(window_id=release["window_id"] + 1000),
+                  repo / "data/windows/release_tf30.parquet")
+    write_no_predictions(repo / "data/predictions/long_term/release_tf30/ynet.parquet",
+                         {"model": "ynet", "benchmark": "sdd_long_term_release_tf30", "unit": "px",
+                          "seeds": []}, "Y-net is not run in this test")
+    labels = repo / "data/labels"
+    (labels / "maps").mkdir(parents=True)
+    mask = np.full((1500, 1500), CLASS_NAMES.index("pavement"), np.uint8)
+    mask[:, 1200:] = CLASS_NAMES.index("structure")
+    for video in SCENES:
+        cv2.imwrite(str(labels / "maps" / f"{video}.png"), mask)
+    (labels / "index.json").write_text(json.dumps({
+        "classes": list(CLASS_NAMES), "pad_class": 0,
+        "videos": {v: {"split": "test", "height": 1500, "width": 1500} for v in SCENES}}))
+    scales = repo / "data/raw/sdd/estimated_scales.yaml"
+    scales.parent.mkdir(parents=True)
+    scales.write_text(yaml.safe_dump({"gates": {"video2": {"scale": 0.04, "certainty": 1.0}},
+                                      "hyang": {"video0": {"scale": 0.03, "certainty": 1.0}}}))
+
+
+def dvc(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+           "DVC_NO_ANALYTICS": "1", "OMP_NUM_THREADS": "1", "PYTHONPATH": str(cwd)}
+    return subprocess.run([sys.executable, "-m", "dvc", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.slow
+def test_a_toy_model_registered_in_a_copy_of_the_repo_reaches_the_report(tmp_path):
+    """One file (pipeline/models/mean_speed.py) and one line (params.yaml `models`) in a copy of
+    the repository; `dvc repro` of its stages, score_predictions and the report on fixture
+    windows; the model is in Table 3, Figure 4 and "Beyond the paper's tables"."""
+    t0 = time.perf_counter()
+    repo = tmp_path / "repo"
+    for rel in tracked_files():
+        (repo / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(REPO / rel, repo / rel)
+    subprocess.run(["git", "init", "-q"], cwd=repo, check=True)
+
+    # the one file and the one line; one horizon keeps the run short
+    (repo / "pipeline/models/mean_speed.py").write_text(TOY)
+    text = (repo / "params.yaml").read_text()
+    cv = next(line for line in text.splitlines(keepends=True)
+              if line.startswith("  constant_velocity: {class:"))
+    text = text.replace(cv, cv + TOY_LINE, 1)
+    text = re.sub(r"(?m)^  horizons: \[.*\]$", "  horizons: [30]", text, count=1)
+    (repo / "params.yaml").write_text(text)
+    write_scene_inputs(repo, [30])
+    # the report's inputs from stages not run here: explained on the page as absent or broken
+    (repo / "data/ynet_predictions").mkdir(parents=True)
+    (repo / "data/ynet_predictions/qualitative.npz").write_bytes(b"")
+    for folder in ("reports/figures/segmentation/predictions", "reports/figures/animations"):
+        (repo / folder).mkdir(parents=True, exist_ok=True)
+    (repo / "metrics/baseline_seed_spread.json").write_text("{}\n")
+
+    stages = ["fit_model@mean_speed-30", "predict_model@mean_speed-30", "score_predictions", "report"]
+    result = dvc(["repro", "--single-item", *stages], repo)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+
+    lock = yaml.safe_load((repo / "dvc.lock").read_text())["stages"]
+    assert lock["fit_model@mean_speed-30"]["params"]["params.yaml"] == {
+        "models.mean_speed.class": "MeanSpeed", "models.mean_speed.settings": {"spread": 0.2},
+        "train_baseline": {"seed": 0, "threads": 1}, "windows.n_past": 5}
+    assert (repo / "checkpoints/models/mean_speed_tf30/speed.json").is_file()
+    metrics = json.loads((repo / "metrics/baselines/mean_speed_tf30.json").read_text())
+    assert metrics["model"] == "mean_speed" and metrics["k"] == 20 and metrics["rounds"] == 3
+    assert metrics["n_windows"] == 6 and metrics["ade"]["std"] > 0
+    beyond = json.loads((repo / "metrics/beyond/long_term.json").read_text())
+    assert beyond["tables"]["tf30"]["models"]["mean_speed"]["metrics"]["ade"]["mean"] == \
+        pytest.approx(metrics["ade"]["mean"])  # score_predictions found the stored rounds
+
+    html = (repo / "reports/index.html").read_text()
+    table3 = html[html.index('data-table="sdd_long"'):]
+    table3 = table3[:table3.index("</table>")]
+    assert "<th>Mean-speed walker</th>" in table3
+    assert f"{metrics['ade']['mean']:,.2f}" in table3 and "not in the paper" in table3
+    horizon = html[html.index('<h2 id="fig-horizon">'):html.index('<h2 id="seed-spread">')]
+    assert "<tr><th>Mean-speed walker</th>" in horizon
+    plots = json.loads((repo / "reports/plots/horizon_ade.json").read_text())
+    assert [row["t_f"] for row in plots if "mean_speed" in row] == [30]
+    section = html[html.index('<h2 id="beyond">'):html.index('<h2 id="data">')]
+    assert "<tr><th>Mean-speed walker</th>" in section
+    assert (repo / "reports/headline/table3_sdd_long/sdd_mean_speed_walker_k_a_1.json").is_file()
+    assert "release_tf30/ynet: Y-net is not run in this test" in section
+    assert time.perf_counter() - t0 < 120
