@@ -20,13 +20,14 @@ import pandas as pd
 import pytest
 import yaml
 
-from pipeline.config import ModelEntry, ParamsError, load_models, read_params
+from pipeline.config import ParamsError, read_params
 from pipeline.data.window_table import conform
 from pipeline.harness import baseline_runs
 from pipeline.harness.model_runs import FIT_FACTS, fit_to_workdir, predict_to_files
 from pipeline.harness.predictions import read_predictions, write_no_predictions
 from pipeline.io import write_parquet
-from pipeline.models import WindowSet, check_predictions, load_model, model_file
+from pipeline.models import (ModelEntry, WindowSet, check_predictions, load_model, load_models,
+                             model_file)
 from ynet.segmentation import CLASS_NAMES
 
 REPO = Path(__file__).resolve().parents[1]

@@ -21,13 +21,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pipeline.config import (EvaluateBaselineParams, ModelEntry, ParamsError, TrainBaselineParams,
-                             WindowParams, load_models, load_section)
+from pipeline.config import (EvaluateBaselineParams, ParamsError, TrainBaselineParams, WindowParams,
+                             load_section)
 from pipeline.data.window_table import WindowArrays, to_arrays
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import atomic_dir, write_json
-from pipeline.models import WindowSet, check_predictions, load_model
+from pipeline.models import ModelEntry, WindowSet, check_predictions, load_model, load_models
 
 FIT_FACTS = "fit.json"  # written by the harness into every workdir, beside the model's own files
 

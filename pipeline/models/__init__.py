@@ -26,7 +26,7 @@ Positions are float64 pixels of the original SDD images, 1 FPS, t_f = n_f second
 
 **The line.** In `params.yaml`, section `models`:
 `<name>: {class: <Class>, label: <shown in the report>, colour: "#rrggbb", settings: {...}}`
-(`pipeline.config.load_models` checks it). DVC then has the stages `fit_model@<name>-<t_f>` and
+(`load_models` below checks it). DVC then has the stages `fit_model@<name>-<t_f>` and
 `predict_model@<name>-<t_f>` for every horizon of `windows.horizons`, and the report a column in
 Table 3, a line in Figure 4 and rows in "Beyond the paper's tables".
 
@@ -40,6 +40,7 @@ imports of project code are followed into its stages' deps (`tools/sync_dvc_deps
 from __future__ import annotations
 
 import importlib
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,10 +48,88 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from pipeline.config import ModelEntry
+from pipeline.config import ParamsError, read_params
 
 PACKAGE = __name__  # pipeline.models
 FOLDER = Path(__file__).parent
+
+
+# ---------------------------------------------------------------------------------------------
+# The registry: section `models` of params.yaml, one line per model
+
+MODELS_SECTION = "models"
+# Names the paper's models' own stages already write under (metrics/baselines/<name>_tf<H>.json,
+# data/predictions/long_term/tf<H>/<name>.parquet): a registered model may not take one.
+RESERVED_MODEL_NAMES = ("ynet", "sgan", "pecnet", "rpecnet")
+MODEL_NAME = re.compile(r"[a-z][a-z0-9_]*")
+HEX_COLOUR = re.compile(r"#[0-9a-fA-F]{6}")
+MODEL_KEYS = ("class", "label", "colour", "settings")
+
+
+@dataclass(frozen=True)
+class ModelEntry:
+    """One line of section `models`: `<name>: {class, label, colour, settings}`.
+
+    The model's code is `pipeline/models/<name>.py` (the name is also its stages' and files'
+    name), `class` the class there written to the contract of `pipeline.models`, `label` and
+    `colour` (#rrggbb) how the report shows it, `settings` the mapping its constructor takes
+    (`{}` for none). Kept here, not in `pipeline.config` with the other sections: it is this
+    contract's, and every stage imports `pipeline.config`."""
+
+    name: str
+    class_name: str
+    label: str
+    colour: str
+    settings: dict[str, Any]
+
+
+def load_models(params: dict[str, Any] | None = None) -> dict[str, ModelEntry]:
+    """Section `models` of `params.yaml` (or of `params`), in its order, each line checked."""
+    params = read_params() if params is None else params
+    if MODELS_SECTION not in params:
+        raise ParamsError(f"params.yaml: missing section '{MODELS_SECTION}' (README \"Your model "
+                          "here\"; `models: {}` registers none)")
+    section = params[MODELS_SECTION]
+    if section is None:
+        return {}
+    if not isinstance(section, dict):
+        raise ParamsError(f"params.yaml:{MODELS_SECTION}: expected a mapping of model name to "
+                          f"{{{', '.join(MODEL_KEYS)}}}, got {type(section).__name__}")
+    return {name: model_entry(name, line) for name, line in section.items()}
+
+
+def model_entry(name: Any, line: Any) -> ModelEntry:
+    where = f"params.yaml:{MODELS_SECTION}.{name}"
+    if not isinstance(name, str) or not MODEL_NAME.fullmatch(name):
+        raise ParamsError(f"{where}: a model name is lower-case letters, digits and underscores, "
+                          "starting with a letter (it names pipeline/models/<name>.py and the files)")
+    if name in RESERVED_MODEL_NAMES:
+        raise ParamsError(f"{where}: {name!r} is one of the paper's models, which have stages of "
+                          f"their own; taken names: {list(RESERVED_MODEL_NAMES)}")
+    if not isinstance(line, dict):
+        raise ParamsError(f"{where}: expected a mapping {{{', '.join(MODEL_KEYS)}}}, "
+                          f"got {type(line).__name__}")
+    unknown, missing = sorted(set(map(str, line)) - set(MODEL_KEYS)), [k for k in MODEL_KEYS if k not in line]
+    if unknown or missing:
+        raise ParamsError(f"{where}: " + "; ".join(
+            ([f"unknown key(s) {unknown}"] if unknown else [])
+            + ([f"missing key(s) {missing}"] if missing else [])) + f"; keys: {list(MODEL_KEYS)}")
+    if not isinstance(line["class"], str) or not line["class"].isidentifier():
+        raise ParamsError(f"{where}.class: expected the name of a class in pipeline/models/{name}.py, "
+                          f"got {line['class']!r}")
+    if not isinstance(line["label"], str) or not line["label"].strip():
+        raise ParamsError(f"{where}.label: expected a non-empty string, got {line['label']!r}")
+    if not isinstance(line["colour"], str) or not HEX_COLOUR.fullmatch(line["colour"]):
+        raise ParamsError(f"{where}.colour: expected \"#rrggbb\" (quoted: YAML reads # as a "
+                          f"comment), got {line['colour']!r}")
+    if not isinstance(line["settings"], dict):
+        raise ParamsError(f"{where}.settings: expected a mapping ({{}} for none), "
+                          f"got {type(line['settings']).__name__}")
+    return ModelEntry(name, line["class"], line["label"], line["colour"], dict(line["settings"]))
+
+
+# ---------------------------------------------------------------------------------------------
+# The contract
 
 
 @dataclass(frozen=True)

@@ -66,7 +66,8 @@ import cv2
 import numpy as np
 import yaml
 
-from pipeline.config import ModelEntry, ReportParams
+from pipeline.config import ReportParams
+from pipeline.models import ModelEntry
 from pipeline.report.beyond import beyond_section
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)

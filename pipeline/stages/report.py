@@ -22,7 +22,8 @@ import argparse
 import os
 from pathlib import Path
 
-from pipeline.config import ReportParams, load_models, load_section, read_params
+from pipeline.config import ReportParams, load_section, read_params
+from pipeline.models import load_models
 from pipeline.report.page import Inputs, read_lock, write_report
 
 
