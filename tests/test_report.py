@@ -426,21 +426,25 @@ def test_every_cell_is_measured_quoted_or_explained(project):
     paper = yaml.safe_load(PAPER.read_text())
     n_paper = (sum(2 * len(paper[k]["columns"]) for k in ("sdd_short", "sdd_long", "ttst"))
                + 2 * len(paper["eth_ucy"]["models"]) * (len(ETHUCY_SCENES) + 1))
-    assert len(cells) == n_paper
+    registered = yaml.safe_load((project / "params.yaml").read_text())["models"]
+    assert len(cells) == n_paper + 2 * len(registered)  # Table 3: ADE, FDE of each registered model
     for cell in cells:
         text = " ".join(cell["text"].split())
         kind = cell["attrs"]["data-kind"]
-        assert kind in ("measured", "paper-only", "absent"), cell
+        assert kind in ("measured", "paper-only", "absent", "ours-only"), cell
         assert text.startswith("paper "), text
         if kind == "measured":
             assert "ours" in text and re.search(r"[+-]\d+\.\d %", text), text
+        elif kind == "ours-only":  # a registered model: the paper has no value, so no difference
+            assert text.startswith("paper \u2014 ours ") and "not in the paper" in text, text
+            assert not re.search(r"[+-]\d+\.\d %", text), text
         elif kind == "absent":
             assert re.search(r"[a-z]{4,}", text.split(" ", 2)[2]), text  # words, not a number
         else:
             assert "paper only" in text
         assert not re.search(r"\b(nan|None|inf)\b", text), text
     kinds = {c["attrs"]["data-kind"] for c in cells}
-    assert kinds == {"measured", "paper-only", "absent"}  # inD status record: absent
+    assert kinds == {"measured", "paper-only", "absent", "ours-only"}  # inD status record: absent
     assert all(c["text"].strip() or c["img"] for c in page.cells), "a blank table cell"
 
 
@@ -528,6 +532,9 @@ def test_a_broken_qualitative_file_is_reported(project, tmp_path):
     np.savez(path, **arrays)
     loaded = report.load_qualitative(path)
     assert isinstance(loaded, report.Absent) and "missing goal_heatmap" in loaded.reason
+    path.write_bytes(b"")  # a file cut short to nothing: explained, not a crash
+    loaded = report.load_qualitative(path)
+    assert isinstance(loaded, report.Absent) and "unreadable" in loaded.reason
 
 
 def test_animations_are_shown_per_benchmark_and_a_missing_one_says_so(project):
@@ -1057,3 +1064,53 @@ def test_beyond_section_changes_no_paper_table_and_says_when_it_is_missing(proje
     assert comparison_cells(parse(html)) == with_it  # every cell of the paper's tables as it was
     assert f"stage not yet run: {project / 'metrics'}/beyond/long_term.json missing" in html
     assert not (project / "reports/figures/report/beyond_horizons.png").exists()
+
+
+def test_a_registered_model_gets_a_table_3_column_a_horizon_line_and_beyond_rows(project):
+    """One line in params.yaml `models` (README "Your model here") and the files its stages write
+    put a model in Table 3 (no paper value: "—", no difference), Figure 4, the dvc plots series,
+    the headline metrics and "Beyond the paper's tables"; one not yet run is explained, not blank."""
+    params = yaml.safe_load((project / "params.yaml").read_text())
+    params["models"]["toy"] = {"class": "Toy", "label": "Toy walker", "colour": "#17becf",
+                               "settings": {}}
+    params["models"]["later"] = {"class": "Later", "label": "Not run yet", "colour": "#bcbd22",
+                                 "settings": {}}
+    (project / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
+    files = data_metrics() | model_metrics()
+    for h in HORIZONS:
+        files[f"baselines/toy_tf{h}.json"] = baseline("toy", h, 0.75 * h)
+        files["beyond/long_term.json"]["tables"][f"tf{h}"]["models"]["toy"] = beyond_model("toy", 0.75 * h)
+    write_metrics(project / "metrics", files)
+    html = full_project_page(project)
+
+    table = html[html.index('data-table="sdd_long"'):]
+    table = table[:table.index("</table>")]
+    header = re.findall(r"<th>([^<]*)</th>", table)
+    # after the paper's SDD columns (Y-net K_a = 5), before inD; registry order
+    assert header.index("Toy walker") == header.index("Constant velocity") + 1
+    assert header.index("Not run yet") == header.index("Toy walker") + 1
+    cells = [c for c in comparison_cells(parse(html)) if "22.50" in c["text"]]  # toy's ADE at 30 s
+    assert len(cells) == 1 and cells[0]["attrs"]["data-kind"] == "ours-only"
+    text = " ".join(cells[0]["text"].split())
+    assert text.startswith("paper \u2014 ours 22.50") and "not in the paper" in text
+    missing = f"stage not yet run: {project / 'metrics'}/baselines/later_tf30.json missing"
+    assert missing in table  # absent, explained
+
+    horizon = html[html.index('<h2 id="fig-horizon">'):html.index('<h2 id="seed-spread">')]
+    assert "<tr><th>Toy walker</th>" in horizon and "<tr><th>Not run yet</th>" in horizon
+    rows = json.loads((project / "reports/plots/horizon_ade.json").read_text())
+    assert [row["toy"] for row in rows] == [0.75 * h for h in HORIZONS]
+    headline = json.loads((project / "reports/headline/table3_sdd_long/sdd_toy_walker_k_a_1.json")
+                          .read_text())
+    assert headline == {"ade": 22.5, "fde": 2.1 * 22.5}
+    assert list(beyond_rows(html))[:6] == ["model", "PECNet", "R-PECNet", "S-GAN",
+                                          "Constant velocity", "Toy walker"]
+    assert beyond_rows(html)["Toy walker"][:2] == ["22.50", "45.00"]
+
+
+def full_project_page(root: Path) -> str:
+    """The report of `root`'s metrics as written (no fixture metrics added)."""
+    write_qualitative(root / "data/ynet_predictions/qualitative.npz")
+    html = run_report(root).read_text()
+    assert_well_formed(html)
+    return html
