@@ -26,7 +26,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's 
 
 from pipeline.config import (ScorePredictionsParams, WindowParams, load_section,  # noqa: E402
                              read_params)
-from pipeline.harness.stored_scores import SceneMaps, score_tables  # noqa: E402
+from pipeline.harness.stored_scores import (long_term_benchmark_spec, read_scales,  # noqa: E402
+                                            score_tables, sdd_label_masks)
 
 # The stage's inputs, relative to the repository (as dvc.yaml's score_predictions names them).
 PREDICTIONS = "data/predictions/long_term"
@@ -40,11 +41,13 @@ def score_everything(root: Path, params_file: Path) -> dict:
     """What the stage computes from `root`'s data and `params_file` (masks and scales read anew)."""
     params = read_params(params_file)
     windows = load_section(WindowParams, "windows", params)
-    tables = {f"tf{h}": root / HORIZON_WINDOWS / f"tf{h}.parquet" for h in windows.horizons}
-    tables[Path(RELEASE_WINDOWS).stem] = root / RELEASE_WINDOWS
-    return score_tables(tables, root / PREDICTIONS, windows.n_past,
-                        SceneMaps(root / LABELS, root / SCALES),
-                        load_section(ScorePredictionsParams, "score_predictions", params))
+    settings = load_section(ScorePredictionsParams, "score_predictions", params)
+    masks, scales = sdd_label_masks(root / LABELS, settings.forbidden_classes), read_scales(root / SCALES)
+    paths = {f"tf{h}": root / HORIZON_WINDOWS / f"tf{h}.parquet" for h in windows.horizons}
+    paths[Path(RELEASE_WINDOWS).stem] = root / RELEASE_WINDOWS
+    tables = {name: long_term_benchmark_spec(path, windows.n_past, masks, scales, root / SCALES)
+              for name, path in paths.items()}
+    return score_tables(tables, root / PREDICTIONS, settings)
 
 
 def main() -> None:
