@@ -126,10 +126,46 @@ def beyond_metrics() -> dict:
                            "log_pdf_floor": -20.0, "forbidden_classes": ["structure", "tree"]}}
 
 
+IND_REASON = "inD is licence-restricted and not redistributed"
+
+
+def short_term_beyond_metrics() -> dict:
+    """metrics/beyond/short_term.json: S-GAN and PECNet on SDD (px) and on eth (m), Y-net on SDD
+    only (not run on eth)."""
+    def entry(name: str, unit: str, models: dict) -> dict:
+        return {"benchmark": f"short_term_{name}", "unit": unit, "split": "test",
+                "n_windows": 2829 if unit == "px" else 181, "n_future": 12,
+                "scene_masks": {"source": "hand labels data/labels" if unit == "px" else "road maps",
+                                "forbidden_classes": ["structure", "tree"] if unit == "px"
+                                else ["not_road"], "scenes_with_mask": ["coupa_0"],
+                                "scenes_without_mask": [], "windows_with_mask": 2829 if unit == "px"
+                                else 181, "n_windows": 2829 if unit == "px" else 181},
+                "models": models}
+    sdd = {m: beyond_model(m, ade) for m, ade in (("ynet", 12.75), ("sgan", 13.375),
+                                                    ("pecnet", 14.5))}
+    eth = {"ynet": {"file": "data/predictions/short_term/eth/ynet.parquet", "model": "ynet",
+                    "not_run_reason": "Y-net is not trained on eth in the cpu profile"},
+           "sgan": beyond_model("sgan", 0.8125), "pecnet": beyond_model("pecnet", 0.625)}
+    return {"thresholds": {"miss_threshold_m": 2.0, "collision_threshold_m": 0.2,
+                           "log_pdf_floor": -20.0, "forbidden_classes": ["structure", "tree"]},
+            "benchmarks": {"sdd": entry("sdd_trajnet", "px", sdd), "eth": entry("ethucy_eth", "m", eth)},
+            "score_seconds": 3.5}
+
+
+def ind_beyond_metrics() -> dict:
+    """metrics/beyond/ind.json without inD: every file gives the reason."""
+    return {"thresholds": {}, "score_seconds": 0.01, "benchmarks": {"ind": {
+        "benchmark": "ind_long_term", "unit": "px", "split": "test",
+        "models": {m: {"file": f"data/predictions/ind/{m}.parquet", "model": m,
+                       "not_run_reason": IND_REASON} for m in ("ynet", "sgan", "pecnet")}}}}
+
+
 def model_metrics() -> dict[str, object]:
     """What the training / evaluation stages will write."""
     files: dict[str, object] = {
         "beyond/long_term.json": beyond_metrics(),
+        "beyond/short_term.json": short_term_beyond_metrics(),
+        "beyond/ind.json": ind_beyond_metrics(),
         "ynet_eval.json": {
             "profile": "cpu", "t_f": 30, "n_windows": 382, "rounds": 3,
             "main": four(49.5, 70.25),
@@ -1114,3 +1150,49 @@ def full_project_page(root: Path) -> str:
     html = run_report(root).read_text()
     assert_well_formed(html)
     return html
+
+
+def short_term_rows(html: str, table: str = "beyond-short-term") -> dict[str, list[str]]:
+    """{"<benchmark> / <model>": [unit, values...] or [unit, not-scored reason]}."""
+    part = html[html.index(f'data-table="{table}"'):]
+    part = part[:part.index("</table>")]
+    rows = {}
+    for bench, model, body in re.findall(r"<tr><th>([^<]+)</th><th>([^<]+)</th>(.*?)</tr>", part,
+                                         flags=re.S):
+        unit = re.search(r"<td>([^<]*)</td>", body)
+        values = re.findall(r'class="ours-value">([^<]+)<', body)
+        rows[f"{bench} / {model}"] = [unit.group(1) if unit else ""] + (
+            values or [" ".join(re.sub(r"<[^>]+>", " ", body).split()[1:])])
+    return rows
+
+
+def test_beyond_short_term_table_states_units_and_reasons(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics())
+    html = run_report(project).read_text()
+    assert_well_formed(html)
+    rows = short_term_rows(html)
+    assert list(rows) == ["benchmark / model", "SDD (TrajNet) / Y-net", "SDD (TrajNet) / S-GAN",
+                          "SDD (TrajNet) / PECNet", "ETH / Y-net", "ETH / S-GAN", "ETH / PECNet"]
+    # Pixels: 2 decimals (ADE 12.75, FDE twice that).
+    assert rows["SDD (TrajNet) / Y-net"][:3] == ["px", "12.75", "25.50"]
+    # Metres: 3 decimals; best endpoint 0.625 + 4.25; miss 0.375; NLL 11.5 + 0.00625.
+    assert rows["ETH / PECNet"] == ["m", "0.625", "1.250", "9.750", "4.875", "0.375", "11.51",
+                                    "0.188", "0.125", "0.013", "0.000"]
+    assert rows["ETH / Y-net"] == ["m", "not scored: Y-net is not trained on eth in the cpu profile"]
+    section = html[html.index('<h3 id="beyond-short-term">'):html.index('<h2 id="animations">')]
+    assert "per pixel&sup2; for SDD, per metre&sup2; for ETH/UCY" in section
+    assert "ETH: 181 of 181 windows in a scene with a mask, forbidden not_road" in section
+    assert f"inD is absent from these metrics: {IND_REASON}" in section
+    assert "(ind/ynet, ind/pecnet, ind/sgan)" in section  # the long-term models' order
+
+
+def test_short_term_and_ind_beyond_change_no_paper_table_and_say_when_missing(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics())
+    with_them = comparison_cells(parse(run_report(project).read_text()))
+    for rel in ("beyond/short_term.json", "beyond/ind.json"):
+        (project / "metrics" / rel).unlink()
+    html = run_report(project).read_text()
+    assert comparison_cells(parse(html)) == with_them
+    assert f"stage not yet run: {project / 'metrics'}/beyond/short_term.json missing" in html
+    assert f"inD: stage not yet run: {project / 'metrics'}/beyond/ind.json missing" in html
+    assert 'data-table="beyond"' in html  # the long-term part stands on its own

@@ -9,7 +9,8 @@ explained absence, never a blank or a made-up number), the paper's values
   registered in params.yaml `models`, README "Your model here", as a Table 3 column of its own,
   ours only: the paper has no value for it), the horizon and
   K_a figures, the training-seed spread (baselines and Y-net), the qualitative figure, "Beyond the paper's
-  tables" (`pipeline.report.beyond`: the metrics of stage `score_predictions`), the data audit and
+  tables" (`pipeline.report.beyond`: the metrics of stages `score_predictions` and
+  `score_short_term_predictions`: long-term SDD, the short-term benchmarks, inD), the data audit and
   counts, segmentation scores, provenance;
 - its figures as PNG files (matplotlib, Agg) in `reports/figures/report/`;
 - the figure series as JSON for `dvc plots` in `reports/plots/`;
@@ -36,7 +37,8 @@ results is shown as its reason):
 - `ind_benchmark.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
 - `beyond/long_term.json`: {"thresholds", "tables": {<table>: {"t_f", "models": {<model>: {"rounds",
   "metrics": {<metric>: {"mean", "std"}}, "ground_truth": {<metric>: value}} or {"not_run_reason"}}}}}
-  (`pipeline.harness.stored_scores`)
+  (`pipeline.harness.stored_scores`); `beyond/short_term.json` and `beyond/ind.json`: {"thresholds",
+  "benchmarks": {<name>: {"unit", "scene_masks", "models": {<model>: the same model record}}}}
 - `segmentation.json`: {"miou", "iou": {class: iou}}; the data files `windows.json`,
   `data_audit.json`, `horizon_windows.json`, `chain_bias.json`, and `sdd_sources.json` (stage
   `tracks`: {"copy": {"provided", "path"}, "videos": {<video>: {"origin", "file", "sha256",
