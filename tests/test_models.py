@@ -28,6 +28,7 @@ from pipeline.harness.predictions import read_predictions, write_no_predictions
 from pipeline.io import write_parquet
 from pipeline.models import (ModelEntry, WindowSet, check_predictions, load_model, load_models,
                              model_file)
+from pipeline.runners.ind import prediction_metadata as ind_prediction_metadata
 from ynet.segmentation import CLASS_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
@@ -406,11 +407,17 @@ def test_a_toy_model_registered_in_a_copy_of_the_repo_reaches_the_report(tmp_pat
     # the report's inputs from stages not run here: explained on the page as absent or broken
     (repo / "data/ynet_predictions").mkdir(parents=True)
     (repo / "data/ynet_predictions/qualitative.npz").write_bytes(b"")
-    for folder in ("reports/figures/segmentation/predictions", "reports/figures/animations"):
+    for folder in ("reports/figures/segmentation/predictions", "reports/figures/animations",
+                   ):
         (repo / folder).mkdir(parents=True, exist_ok=True)
-    (repo / "metrics/baseline_seed_spread.json").write_text("{}\n")
+    for rel in ("metrics/baseline_seed_spread.json", "metrics/beyond/short_term.json"):
+        (repo / rel).parent.mkdir(parents=True, exist_ok=True)
+        (repo / rel).write_text("{}\n")
+    write_no_predictions(repo / "data/predictions/ind/ynet.parquet", ind_prediction_metadata("ynet"),
+                         "inD not provided")  # as evaluate_ind writes it without inD
 
-    stages = ["fit_model@mean_speed-30", "predict_model@mean_speed-30", "score_predictions", "report"]
+    stages = ["fit_model@mean_speed-30", "predict_model@mean_speed-30", "ind_windows",
+              "score_predictions", "report"]
     result = dvc(["repro", "--single-item", *stages], repo)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
 
