@@ -664,6 +664,65 @@ class HorizonParams:
         return sorted(int(h) for h in self.epochs)
 
 
+def seed_list_error(seeds: Any) -> str | None:
+    """Why `seeds` is not a list of distinct non-negative integer seeds, or None."""
+    if not isinstance(seeds, list) or any(isinstance(s, bool) or not isinstance(s, int) or s < 0
+                                          for s in seeds):
+        return f"must be non-negative integer seeds, got {seeds}"
+    if len(set(seeds)) != len(seeds):
+        return f"holds a seed twice: {seeds}"
+    return None
+
+
+@dataclass(frozen=True)
+class YnetSeedsParams:
+    """Section `ynet_seeds.<profile>`: the main Y-net trained again with other training seeds
+    (stages `train_ynet_seed@<slot>`, `evaluate_ynet_seed@<slot>`), for the report's training-seed
+    spread. The stages DVC builds are the slots `ynet_seeds.slots` (`ynet_seed_slots`); a slot not
+    listed here writes a not-run record giving `why_not`."""
+
+    seeds: list[int] = field(default_factory=list)
+    """Training seeds besides `ynet.<profile>.seed` (the main model); [] trains none."""
+    why_not: str = ""
+    """Why this profile trains no (or only these) extra seeds; required when `seeds` is empty."""
+
+    def __post_init__(self):
+        wrong = seed_list_error(self.seeds)
+        if wrong:
+            raise ValueError(f"seeds {wrong}")
+        if not self.seeds and not self.why_not.strip():
+            raise ValueError("why_not must say why this profile trains no extra Y-net seed")
+
+    def not_run_reason(self, profile: str, seed: int | None = None) -> str:
+        """Why Y-net is not trained with `seed` (None: with any extra seed) in `profile`."""
+        what = f"with seed {seed}" if seed is not None else "with extra training seeds"
+        reason = (f"Y-net is not trained {what} in the {profile} profile (its extra seeds here: "
+                  f"{', '.join(map(str, self.seeds)) or 'none'})")
+        return f"{reason}: {self.why_not}" if self.why_not.strip() else reason
+
+
+def ynet_main_seed(params: dict[str, Any]) -> int:
+    """`ynet.<profile>.seed` alone (the main Y-net's training seed), for a stage that declares only
+    that key of the section (`YnetSettings` itself lives with the training code)."""
+    profile = params.get("profile")
+    seed = params.get("ynet", {}).get(profile, {}).get("seed")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ParamsError(f"params.yaml:ynet.{profile}.seed: expected a non-negative integer seed, "
+                          f"got {seed!r}")
+    return seed
+
+
+def ynet_seed_slots(params: dict[str, Any]) -> list[int]:
+    """`ynet_seeds.slots`: the seeds the `train_ynet_seed` / `evaluate_ynet_seed` stages exist for."""
+    section = params.get("ynet_seeds")
+    if not isinstance(section, dict) or "slots" not in section:
+        raise ParamsError("params.yaml: missing ynet_seeds.slots")
+    wrong = seed_list_error(section["slots"])
+    if wrong:
+        raise ParamsError(f"params.yaml:ynet_seeds.slots {wrong}")
+    return list(section["slots"])
+
+
 # ---------------------------------------------------------------------------------------------
 # Baselines (each model's own config: pipeline.harness.baselines)
 
@@ -692,10 +751,9 @@ class BaselineSeedsParams:
     [] trains none."""
 
     def __post_init__(self):
-        if any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in self.extra):
-            raise ValueError(f"extra must be non-negative integer seeds, got {self.extra}")
-        if len(set(self.extra)) != len(self.extra):
-            raise ValueError(f"extra holds a seed twice: {self.extra}")
+        wrong = seed_list_error(self.extra)
+        if wrong:
+            raise ValueError(f"extra {wrong}")
 
 
 @dataclass

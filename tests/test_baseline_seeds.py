@@ -97,8 +97,8 @@ def test_seed_stages_train_other_models_scored_alike_and_summarized(tmp_path, mo
             assert len(record["per_round"]) == 2
         assert len({r["ade"]["mean"] for r in (main, *seeds)}) == 3  # other models, other errors
 
-    baseline_seed_spread.main(["--metrics", "m", "--out", "spread.json"])
-    spread = json.loads(Path("spread.json").read_text())
+    # the stage's baseline part (the stage itself, Y-net's row included: tests/test_ynet_seeds.py)
+    spread = seed_spread.seed_spread(Path("m"), [5], [1, 2])
     assert spread["extra_seeds"] == [1, 2] and len(spread["entries"]) == 3
     for entry in spread["entries"]:
         model = entry["model"]
@@ -193,8 +193,10 @@ def test_the_main_seed_among_the_extra_ones_is_refused(tmp_path):
 
 def test_the_stage_names_the_file_and_writes_nothing(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    Path("params.yaml").write_text(yaml.safe_dump({"windows": {"horizons": [50]}, "baseline_seeds": {"extra": [1]}}))
-    with pytest.raises(SystemExit, match=r"baseline_seed_spread: .*sgan_tf50\.json: missing"):
+    Path("params.yaml").write_text(yaml.safe_dump({
+        "profile": "cpu", "windows": {"horizons": [50]}, "baseline_seeds": {"extra": [1]},
+        "ynet": {"cpu": {"seed": 0}}, "ynet_seeds": {"slots": [1], "cpu": {"seeds": [], "why_not": "x"}}}))
+    with pytest.raises(SystemExit, match=r"baseline_seed_spread: .*ynet_eval\.json: missing"):
         baseline_seed_spread.main(["--metrics", "m", "--out", "spread.json"])
     assert not Path("spread.json").exists()
 

@@ -15,8 +15,8 @@ import yaml
 
 from pipeline import checkpoints
 from pipeline.harness import baseline_runs, baselines
-from pipeline.stages import (evaluate_baseline, evaluate_constant_velocity, evaluate_pecnet_ka,
-                             evaluate_rpecnet, train_baseline)
+from pipeline.stages import (evaluate_baseline, evaluate_pecnet_ka, evaluate_rpecnet, fit_model,
+                             predict_model, train_baseline)
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.constant_velocity import ConstantVelocity, extrapolate
 from pipeline.harness.baselines.pecnet import Pecnet, PecnetConfig, reversed_windows
@@ -271,6 +271,8 @@ def test_stages_train_and_evaluate(tmp_path, monkeypatch):
         "runtime": {"device": "cpu", "max_minutes": 0},
         **{m: {"cpu": c, "paper": {**c, "epochs": 99}} for m, c in config.items()},
         "evaluate_baseline": {"k": 3, "split": "test", "rounds": 2, "seed": 0, "threads": 1},
+        "models": {"constant_velocity": {"class": "ConstantVelocity", "label": "CV",
+                                         "colour": "#7f7f7f", "settings": {}}},
     }
     (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
     train_baseline.main(["--model", "pecnet", "--horizon", "5", "--table", "tf5.parquet",
@@ -298,9 +300,19 @@ def test_stages_train_and_evaluate(tmp_path, monkeypatch):
         assert sorted(table_read["window_id"].unique()) == [9, 10, 11]  # the test split's ids
         assert table_read["weight"].isna().all() and table_read["goal_x"].isna().all()
     assert scores["ade"]["mean"] < 1e-6  # constant velocity on straight tracks
-    # the one-model stages write the same files as evaluate_baseline for that model
-    evaluate_constant_velocity.main(["--horizon", "7", "--table", "tf7.parquet", "--metrics",
-                                     "m/cv.json", "--predictions", "p/cv.parquet"])
+    # the one-model stages write the same files as evaluate_baseline for that model; constant
+    # velocity, registered (params.yaml models, stages fit_model / predict_model), the same numbers
+    fit_model.main(["--model", "constant_velocity", "--horizon", "7", "--table", "tf7.parquet",
+                    "--workdir", "ck/models/constant_velocity_tf7"])
+    predict_model.main(["--model", "constant_velocity", "--horizon", "7", "--table", "tf7.parquet",
+                        "--workdir", "ck/models/constant_velocity_tf7", "--metrics", "m/cv.json",
+                        "--predictions", "p/cv.parquet"])
+    registered, direct = (json.loads((tmp_path / "m" / name).read_text())
+                          for name in ("cv.json", "constant_velocity_tf7.json"))
+    assert list(registered) == list(direct)  # the layout of metrics/baselines/<model>_tf<H>.json
+    timings = ("eval_seconds", "eval_seconds_per_round", "train_seconds")
+    assert ({k: v for k, v in registered.items() if k not in timings}
+            == {k: v for k, v in direct.items() if k not in timings})
     evaluate_rpecnet.main(["--horizon", "7", "--table", "tf7.parquet", "--checkpoint-dir",
                            "ck/pecnet_tf5", "--metrics", "m/rp.json",
                            "--predictions", "p/rp.parquet"])

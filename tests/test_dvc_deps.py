@@ -2,7 +2,8 @@
 
 Code: the project modules a stage's `python -m pipeline.stages.<stage>` imports, followed through every
 import inside `pipeline` and `ynet` (a package's `__init__.py` counts when it holds code), must all
-be in the stage's `deps`. Files: every path on the command line must be a declared dep or output
+be in the stage's `deps`; so must whatever a code file listed as a dep imports (a registered
+model's file, which its stages load by name: `pipeline/models/<name>.py`). Files: every path on the command line must be a declared dep or output
 (or lie inside one, or be the folder of declared outputs), except `dvc.lock`, which the report reads for its provenance and which
 cannot be a dep of a stage it records.
 """
@@ -15,7 +16,7 @@ from pathlib import Path
 import pytest
 from dvc.repo import Repo
 
-from tools.code_graph import REPO, code_closure
+from tools.code_graph import REPO, code_closure, module_name
 
 NOT_A_DEP = {"dvc.lock"}  # read by `report` for provenance; a dep on it could never be up to date
 
@@ -38,12 +39,20 @@ def covered(path: str, declared: list[str], outs: list[str]) -> bool:
 STAGES = stages()
 
 
+def is_code(path: str) -> bool:
+    return path.endswith(".py") and path.split("/")[0] in ("pipeline", "ynet")
+
+
 @pytest.mark.parametrize("stage", STAGES, ids=lambda s: s.addressing)
 def test_stage_declares_the_code_it_imports(stage):
     module = stage_module(stage.cmd)
     assert module, f"{stage.addressing}: command is not `python -m <module>`: {stage.cmd}"
     deps = [d.def_path for d in stage.deps]
-    missing = sorted(f for f in code_closure(module) if f not in deps)
+    needed = set(code_closure(module))
+    for dep in filter(is_code, deps):  # a code dep brings what it imports
+        assert (REPO / dep).is_file(), f"{stage.addressing}: code dep {dep} does not exist"
+        needed |= code_closure(module_name(REPO / dep))
+    missing = sorted(f for f in needed if f not in deps)
     assert not missing, f"{stage.addressing} imports {missing} but dvc.yaml does not list them"
 
 
@@ -66,3 +75,24 @@ def test_the_closure_follows_imports_through_packages():
     assert "pipeline/__init__.py" not in closure  # a docstring only
     assert "pipeline/stages/__init__.py" not in closure
     assert "ynet/model.py" in code_closure("pipeline.stages.evaluate_ynet")
+
+
+def test_a_registered_models_imports_become_its_stages_deps(tmp_path):
+    """tools/sync_dvc_deps.py adds what a registered model's file imports to the code deps of the
+    stages that load it by name, beside the templated `pipeline/models/${item.model}.py`."""
+    from tools.sync_dvc_deps import MODEL_DEP, registered_model_code, synced_deps
+
+    params = tmp_path / "params.yaml"
+    params.write_text("models:\n  constant_velocity: {class: ConstantVelocity, label: CV, "
+                      "colour: '#7f7f7f', settings: {}}\n")
+    imported = registered_model_code(params)
+    assert "pipeline/harness/baselines/constant_velocity.py" in imported  # extrapolate
+    assert "pipeline/models/__init__.py" in imported  # the contract
+    assert "pipeline/models/constant_velocity.py" not in imported  # the templated dep names it
+    body = {"cmd": "python -m pipeline.stages.predict_model --model ${item.model}",
+            "deps": ["pipeline/io.py", MODEL_DEP, "data/x.parquet"]}
+    deps = synced_deps(body, params)
+    assert deps[-2:] == [MODEL_DEP, "data/x.parquet"]  # kept as written, after the code
+    assert set(deps[:-2]) == set(code_closure("pipeline.stages.predict_model")) | imported
+    params.write_text("models: {}\n")  # nothing registered: the stage's own imports only
+    assert set(synced_deps(body, params)[:-2]) == set(code_closure("pipeline.stages.predict_model"))

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import pytest
 
 from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
-from pipeline.config import load_profile
+from pipeline.config import YnetSeedsParams, load_profile
 from pipeline.runners.ynet_training import YnetSettings
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
@@ -38,7 +38,7 @@ def test_params_yaml_sections_validate(key, cls):
 
 
 PROFILED = {"ynet": YnetSettings, "eval": EvalParams, "segmentation": SegmentationParams,
-            "ynet_horizons": HorizonParams}
+            "ynet_horizons": HorizonParams, "ynet_seeds": YnetSeedsParams}
 
 
 @pytest.mark.parametrize("profile", ["cpu", "paper"])

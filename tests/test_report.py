@@ -126,10 +126,46 @@ def beyond_metrics() -> dict:
                            "log_pdf_floor": -20.0, "forbidden_classes": ["structure", "tree"]}}
 
 
+IND_REASON = "inD is licence-restricted and not redistributed"
+
+
+def short_term_beyond_metrics() -> dict:
+    """metrics/beyond/short_term.json: S-GAN and PECNet on SDD (px) and on eth (m), Y-net on SDD
+    only (not run on eth)."""
+    def entry(name: str, unit: str, models: dict) -> dict:
+        return {"benchmark": f"short_term_{name}", "unit": unit, "split": "test",
+                "n_windows": 2829 if unit == "px" else 181, "n_future": 12,
+                "scene_masks": {"source": "hand labels data/labels" if unit == "px" else "road maps",
+                                "forbidden_classes": ["structure", "tree"] if unit == "px"
+                                else ["not_road"], "scenes_with_mask": ["coupa_0"],
+                                "scenes_without_mask": [], "windows_with_mask": 2829 if unit == "px"
+                                else 181, "n_windows": 2829 if unit == "px" else 181},
+                "models": models}
+    sdd = {m: beyond_model(m, ade) for m, ade in (("ynet", 12.75), ("sgan", 13.375),
+                                                    ("pecnet", 14.5))}
+    eth = {"ynet": {"file": "data/predictions/short_term/eth/ynet.parquet", "model": "ynet",
+                    "not_run_reason": "Y-net is not trained on eth in the cpu profile"},
+           "sgan": beyond_model("sgan", 0.8125), "pecnet": beyond_model("pecnet", 0.625)}
+    return {"thresholds": {"miss_threshold_m": 2.0, "collision_threshold_m": 0.2,
+                           "log_pdf_floor": -20.0, "forbidden_classes": ["structure", "tree"]},
+            "benchmarks": {"sdd": entry("sdd_trajnet", "px", sdd), "eth": entry("ethucy_eth", "m", eth)},
+            "score_seconds": 3.5}
+
+
+def ind_beyond_metrics() -> dict:
+    """metrics/beyond/ind.json without inD: every file gives the reason."""
+    return {"thresholds": {}, "score_seconds": 0.01, "benchmarks": {"ind": {
+        "benchmark": "ind_long_term", "unit": "px", "split": "test",
+        "models": {m: {"file": f"data/predictions/ind/{m}.parquet", "model": m,
+                       "not_run_reason": IND_REASON} for m in ("ynet", "sgan", "pecnet")}}}}
+
+
 def model_metrics() -> dict[str, object]:
     """What the training / evaluation stages will write."""
     files: dict[str, object] = {
         "beyond/long_term.json": beyond_metrics(),
+        "beyond/short_term.json": short_term_beyond_metrics(),
+        "beyond/ind.json": ind_beyond_metrics(),
         "ynet_eval.json": {
             "profile": "cpu", "t_f": 30, "n_windows": 382, "rounds": 3,
             "main": four(49.5, 70.25),
@@ -426,21 +462,25 @@ def test_every_cell_is_measured_quoted_or_explained(project):
     paper = yaml.safe_load(PAPER.read_text())
     n_paper = (sum(2 * len(paper[k]["columns"]) for k in ("sdd_short", "sdd_long", "ttst"))
                + 2 * len(paper["eth_ucy"]["models"]) * (len(ETHUCY_SCENES) + 1))
-    assert len(cells) == n_paper
+    registered = yaml.safe_load((project / "params.yaml").read_text())["models"]
+    assert len(cells) == n_paper + 2 * len(registered)  # Table 3: ADE, FDE of each registered model
     for cell in cells:
         text = " ".join(cell["text"].split())
         kind = cell["attrs"]["data-kind"]
-        assert kind in ("measured", "paper-only", "absent"), cell
+        assert kind in ("measured", "paper-only", "absent", "ours-only"), cell
         assert text.startswith("paper "), text
         if kind == "measured":
             assert "ours" in text and re.search(r"[+-]\d+\.\d %", text), text
+        elif kind == "ours-only":  # a registered model: the paper has no value, so no difference
+            assert text.startswith("paper \u2014 ours ") and "not in the paper" in text, text
+            assert not re.search(r"[+-]\d+\.\d %", text), text
         elif kind == "absent":
             assert re.search(r"[a-z]{4,}", text.split(" ", 2)[2]), text  # words, not a number
         else:
             assert "paper only" in text
         assert not re.search(r"\b(nan|None|inf)\b", text), text
     kinds = {c["attrs"]["data-kind"] for c in cells}
-    assert kinds == {"measured", "paper-only", "absent"}  # inD status record: absent
+    assert kinds == {"measured", "paper-only", "absent", "ours-only"}  # inD status record: absent
     assert all(c["text"].strip() or c["img"] for c in page.cells), "a blank table cell"
 
 
@@ -528,6 +568,9 @@ def test_a_broken_qualitative_file_is_reported(project, tmp_path):
     np.savez(path, **arrays)
     loaded = report.load_qualitative(path)
     assert isinstance(loaded, report.Absent) and "missing goal_heatmap" in loaded.reason
+    path.write_bytes(b"")  # a file cut short to nothing: explained, not a crash
+    loaded = report.load_qualitative(path)
+    assert isinstance(loaded, report.Absent) and "unreadable" in loaded.reason
 
 
 def test_animations_are_shown_per_benchmark_and_a_missing_one_says_so(project):
@@ -703,6 +746,54 @@ def test_training_seed_spread_table_beside_the_evaluation_round_spread(project):
     cells = [" ".join(c["text"].split()) for c in comparison_cells(parse(html))]
     spreads = [c for c in cells if "±" in c]
     assert spreads and all(re.search(r"± \d+\.\d+ over 3 evaluation rounds", c) for c in spreads), spreads
+
+
+def ynet_spread_entry(not_run: bool) -> dict:
+    """Y-net's entry of baseline_seed_spread.json: seeds 0, 1, 2 (paper), or the main seed alone
+    with the reason (cpu)."""
+    def per_seed(seed, ade, fde, epoch):
+        return {"seed": seed, "ade": ade, "fde": fde, "ade_joint": ade, "fde_joint": fde + 1.0,
+                "round_std": {"ade": 0.25, "fde": 1.5}, "best_epoch": epoch,
+                "best_val_ade": 110.0 + epoch, "trained_epochs": 300, "trained_horizon": 30}
+    entry = {"model": "ynet", "horizon": 30, "seeds": [0, 1, 2], "main_seed": 0,
+             "evaluation": {"t_f": 30, "n_windows": 382, "rounds": 3, "k_e": 20, "k_a": 1},
+             "over_training_seeds": {"ade": stat(52.0, 1.25), "fde": stat(75.5, 2.5)},
+             "main_round_std": {"ade": 0.25, "fde": 1.5},
+             "per_seed": [per_seed(0, 50.75, 72.25, 28), per_seed(1, 53.5, 77.0, 31),
+                          per_seed(2, 51.75, 77.25, 25)]}
+    if not not_run:
+        return entry
+    del entry["over_training_seeds"]
+    return {**entry, "seeds": [0], "per_seed": entry["per_seed"][:1],
+            "not_run_reason": "Y-net is not trained with extra training seeds in the cpu profile "
+                              "(its extra seeds here: none): on 2 CPU cores it takes 30 min"}
+
+
+@pytest.mark.parametrize("not_run", [False, True])
+def test_ynet_row_of_the_training_seed_spread(project, not_run):
+    files = data_metrics() | model_metrics()
+    spread = files["baseline_seed_spread.json"]
+    spread["entries"].insert(0, ynet_spread_entry(not_run))
+    spread.update(models=["ynet", *spread["models"]], ynet_extra_seeds=[] if not_run else [1, 2])
+    write_metrics(project / "metrics", files)
+    html = run_report(project).read_text()
+    assert_well_formed(html)
+    rows = seed_spread_rows(html.replace("&plusmn;", "±"))
+    text = " ".join(re.sub(r"<[^>]+>", " ", html.replace("&plusmn;", "±")).split())
+    if not_run:
+        assert rows[2] == ("Y-net 30 s not run: Y-net is not trained with extra training seeds in the "
+                           "cpu profile (its extra seeds here: none): on 2 CPU cores it takes 30 min "
+                           "seed 0: 50.8 / 72.2 (28, 138.0)")
+        assert "The main Y-net (t_f = 30 s, the release's windows) likewise: initial weights" in text
+    else:
+        assert rows[2] == ("Y-net 30 s 52.0 ± 1.2 ± 0.25 75.5 ± 2.5 ± 1.50 "
+                           "seed 0: 50.8 / 72.2 (28, 138.0); seed 1: 53.5 / 77.0 (31, 141.0); "
+                           "seed 2: 51.8 / 77.2 (25, 135.0)")
+        assert "The main Y-net (t_f = 30 s, the release's windows) likewise with seeds 1, 2" in text
+    assert ("scored in the main setting of Table 3 (TTST + CWS, K_e = 20, K_a = 1, 3 rounds) with the "
+            "same round seeds") in text
+    assert rows[3].startswith("PECNet 50 s 164.2 ± 19.8 ± 1.75")  # the baselines' rows follow
+    assert "evaluation (test split, K = 20, 3 rounds from seed 0) are the same" in text
 
 
 def test_no_seed_spread_file_is_explained(project):
@@ -1009,3 +1100,99 @@ def test_beyond_section_changes_no_paper_table_and_says_when_it_is_missing(proje
     assert comparison_cells(parse(html)) == with_it  # every cell of the paper's tables as it was
     assert f"stage not yet run: {project / 'metrics'}/beyond/long_term.json missing" in html
     assert not (project / "reports/figures/report/beyond_horizons.png").exists()
+
+
+def test_a_registered_model_gets_a_table_3_column_a_horizon_line_and_beyond_rows(project):
+    """One line in params.yaml `models` (README "Your model here") and the files its stages write
+    put a model in Table 3 (no paper value: "—", no difference), Figure 4, the dvc plots series,
+    the headline metrics and "Beyond the paper's tables"; one not yet run is explained, not blank."""
+    params = yaml.safe_load((project / "params.yaml").read_text())
+    params["models"]["toy"] = {"class": "Toy", "label": "Toy walker", "colour": "#17becf",
+                               "settings": {}}
+    params["models"]["later"] = {"class": "Later", "label": "Not run yet", "colour": "#bcbd22",
+                                 "settings": {}}
+    (project / "params.yaml").write_text(yaml.safe_dump(params, sort_keys=False))
+    files = data_metrics() | model_metrics()
+    for h in HORIZONS:
+        files[f"baselines/toy_tf{h}.json"] = baseline("toy", h, 0.75 * h)
+        files["beyond/long_term.json"]["tables"][f"tf{h}"]["models"]["toy"] = beyond_model("toy", 0.75 * h)
+    write_metrics(project / "metrics", files)
+    html = full_project_page(project)
+
+    table = html[html.index('data-table="sdd_long"'):]
+    table = table[:table.index("</table>")]
+    header = re.findall(r"<th>([^<]*)</th>", table)
+    # after the paper's SDD columns (Y-net K_a = 5), before inD; registry order
+    assert header.index("Toy walker") == header.index("Constant velocity") + 1
+    assert header.index("Not run yet") == header.index("Toy walker") + 1
+    cells = [c for c in comparison_cells(parse(html)) if "22.50" in c["text"]]  # toy's ADE at 30 s
+    assert len(cells) == 1 and cells[0]["attrs"]["data-kind"] == "ours-only"
+    text = " ".join(cells[0]["text"].split())
+    assert text.startswith("paper \u2014 ours 22.50") and "not in the paper" in text
+    missing = f"stage not yet run: {project / 'metrics'}/baselines/later_tf30.json missing"
+    assert missing in table  # absent, explained
+
+    horizon = html[html.index('<h2 id="fig-horizon">'):html.index('<h2 id="seed-spread">')]
+    assert "<tr><th>Toy walker</th>" in horizon and "<tr><th>Not run yet</th>" in horizon
+    rows = json.loads((project / "reports/plots/horizon_ade.json").read_text())
+    assert [row["toy"] for row in rows] == [0.75 * h for h in HORIZONS]
+    headline = json.loads((project / "reports/headline/table3_sdd_long/sdd_toy_walker_k_a_1.json")
+                          .read_text())
+    assert headline == {"ade": 22.5, "fde": 2.1 * 22.5}
+    assert list(beyond_rows(html))[:6] == ["model", "PECNet", "R-PECNet", "S-GAN",
+                                          "Constant velocity", "Toy walker"]
+    assert beyond_rows(html)["Toy walker"][:2] == ["22.50", "45.00"]
+
+
+def full_project_page(root: Path) -> str:
+    """The report of `root`'s metrics as written (no fixture metrics added)."""
+    write_qualitative(root / "data/ynet_predictions/qualitative.npz")
+    html = run_report(root).read_text()
+    assert_well_formed(html)
+    return html
+
+
+def short_term_rows(html: str, table: str = "beyond-short-term") -> dict[str, list[str]]:
+    """{"<benchmark> / <model>": [unit, values...] or [unit, not-scored reason]}."""
+    part = html[html.index(f'data-table="{table}"'):]
+    part = part[:part.index("</table>")]
+    rows = {}
+    for bench, model, body in re.findall(r"<tr><th>([^<]+)</th><th>([^<]+)</th>(.*?)</tr>", part,
+                                         flags=re.S):
+        unit = re.search(r"<td>([^<]*)</td>", body)
+        values = re.findall(r'class="ours-value">([^<]+)<', body)
+        rows[f"{bench} / {model}"] = [unit.group(1) if unit else ""] + (
+            values or [" ".join(re.sub(r"<[^>]+>", " ", body).split()[1:])])
+    return rows
+
+
+def test_beyond_short_term_table_states_units_and_reasons(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics())
+    html = run_report(project).read_text()
+    assert_well_formed(html)
+    rows = short_term_rows(html)
+    assert list(rows) == ["benchmark / model", "SDD (TrajNet) / Y-net", "SDD (TrajNet) / S-GAN",
+                          "SDD (TrajNet) / PECNet", "ETH / Y-net", "ETH / S-GAN", "ETH / PECNet"]
+    # Pixels: 2 decimals (ADE 12.75, FDE twice that).
+    assert rows["SDD (TrajNet) / Y-net"][:3] == ["px", "12.75", "25.50"]
+    # Metres: 3 decimals; best endpoint 0.625 + 4.25; miss 0.375; NLL 11.5 + 0.00625.
+    assert rows["ETH / PECNet"] == ["m", "0.625", "1.250", "9.750", "4.875", "0.375", "11.51",
+                                    "0.188", "0.125", "0.013", "0.000"]
+    assert rows["ETH / Y-net"] == ["m", "not scored: Y-net is not trained on eth in the cpu profile"]
+    section = html[html.index('<h3 id="beyond-short-term">'):html.index('<h2 id="animations">')]
+    assert "per pixel&sup2; for SDD, per metre&sup2; for ETH/UCY" in section
+    assert "ETH: 181 of 181 windows in a scene with a mask, forbidden not_road" in section
+    assert f"inD is absent from these metrics: {IND_REASON}" in section
+    assert "(ind/ynet, ind/pecnet, ind/sgan)" in section  # the long-term models' order
+
+
+def test_short_term_and_ind_beyond_change_no_paper_table_and_say_when_missing(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics())
+    with_them = comparison_cells(parse(run_report(project).read_text()))
+    for rel in ("beyond/short_term.json", "beyond/ind.json"):
+        (project / "metrics" / rel).unlink()
+    html = run_report(project).read_text()
+    assert comparison_cells(parse(html)) == with_them
+    assert f"stage not yet run: {project / 'metrics'}/beyond/short_term.json missing" in html
+    assert f"inD: stage not yet run: {project / 'metrics'}/beyond/ind.json missing" in html
+    assert 'data-table="beyond"' in html  # the long-term part stands on its own

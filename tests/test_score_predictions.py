@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import shutil
 from pathlib import Path
 
 import cv2
@@ -123,17 +124,36 @@ def project(tmp_path: Path) -> Path:
                          "S-GAN is not trained at t_f = 2 s here")
     write_predictions(goal_model(IDS + 100), folder / "release_tf2" / "ynet.parquet",
                       metadata("ynet", release, [7]))
+    write_ind_not_provided(tmp_path)
     return tmp_path
 
 
-def run(root: Path) -> dict:
-    out = root / "metrics" / "beyond" / "long_term.json"
+IND_REASON = "inD is licence-restricted and not redistributed"
+
+
+def write_ind_not_provided(root: Path) -> None:
+    """What `ind_windows` and `evaluate_ind` write without inD: an index giving the reason, empty
+    tables, and one empty predictions file per model giving it too."""
+    (root / "ind").mkdir()
+    (root / "ind" / "index.json").write_text(json.dumps({
+        "horizon": 30, "n_past": 5, "provided": False, "reason": IND_REASON, "scenes": {},
+        "tables": {"30": "tf30.parquet", "5": "tf5.parquet"}}))
+    for model in ("ynet", "sgan"):
+        write_no_predictions(root / "ind_predictions" / f"{model}.parquet",
+                             {"model": model, "benchmark": "ind_long_term", "unit": "px",
+                              "split": "test"}, IND_REASON)
+
+
+def run(root: Path, record: str = "long_term") -> dict:
+    out = root / "metrics" / "beyond"
     score_predictions.main([
         "--predictions", str(root / "predictions"), "--horizon-windows",
         str(root / "horizon_windows"), "--release-windows", str(root / "windows/release_tf2.parquet"),
         "--labels", str(root / "labels"), "--scales", str(root / "estimated_scales.yaml"),
-        "--out", str(out), "--params", str(root / "params.yaml")])
-    return json.loads(out.read_text())
+        "--ind", str(root / "ind"), "--ind-predictions", str(root / "ind_predictions"),
+        "--out", str(out / "long_term.json"), "--ind-out", str(out / "ind.json"),
+        "--params", str(root / "params.yaml")])
+    return json.loads((out / f"{record}.json").read_text())
 
 
 def test_triangle_model_by_hand(project):
@@ -234,3 +254,73 @@ def test_a_broken_predictions_file_is_named(project):
     path.write_bytes(b"not parquet")
     with pytest.raises(SystemExit, match=rf"score_predictions: {re.escape(str(path))}: "):
         run(project)
+
+
+# ---------------------------------------------------------------------------------------------
+# inD (`--ind-out`): not provided, and a tiny stand-in of a provided copy (no inD data: the
+# fixture's windows again, in two made-up recordings)
+
+
+def test_ind_not_provided_lists_every_file_with_its_reason(project):
+    record = run(project, "ind")
+    assert record["thresholds"]["miss_threshold_m"] == 2.0
+    ind = record["benchmarks"]["ind"]
+    assert (ind["benchmark"], ind["unit"], ind["split"]) == ("ind_long_term", "px", "test")
+    assert ind["metres_per_unit"] == f"inD not provided: {IND_REASON}"
+    assert "n_windows" not in ind and "scene_masks" not in ind  # the empty table is never read
+    assert {m: e["not_run_reason"] for m, e in ind["models"].items()} \
+        == {"ynet": IND_REASON, "sgan": IND_REASON}
+
+
+IND_SCENE = {"gates_2": "ind_loc4_rec00", "hyang_0": "ind_loc4_rec01"}
+
+
+def write_ind_provided(root: Path) -> None:
+    """Windows 10, 11 in recording 00 (0.1 m per pixel, the gates_2 mask as its hand labels),
+    window 20 in recording 01 (0.05 m per pixel, no labels), and a train window 30."""
+    shutil.rmtree(root / "ind")
+    (root / "ind" / "labels").mkdir(parents=True)
+    table = window_table().replace({"scene_id": IND_SCENE})
+    train = table.loc[table["window_id"] == 20].assign(window_id=30, split="train")
+    write_parquet(conform(pd.concat([table, train])), root / "ind" / "tf2.parquet")
+    mask = np.full((10, 10), PAVEMENT, np.uint8)
+    mask[:, 6:] = STRUCTURE
+    cv2.imwrite(str(root / "ind" / "labels" / "ind_loc4_rec00.png"), mask)
+    scenes = {"ind_loc4_rec00": {"ortho_px_to_meter": 0.1 / 12, "height": 10, "width": 10,
+                                 "labels": "labels/ind_loc4_rec00.png"},
+              "ind_loc4_rec01": {"ortho_px_to_meter": 0.05 / 12, "height": 40, "width": 10,
+                                 "labels": None}}
+    (root / "ind" / "index.json").write_text(json.dumps({
+        "provided": True, "n_past": 2, "horizon": 2, "tables": {"2": "tf2.parquet"},
+        "background_scale": 12, "scenes": scenes}))
+    for path in (root / "ind_predictions").glob("*.parquet"):
+        path.unlink()
+    write_predictions(triangle_model(), root / "ind_predictions" / "triangle.parquet",
+                      {"model": "triangle", "benchmark": "ind_long_term", "unit": "px",
+                       "split": "test", "seeds": [0, 1]})
+
+
+def test_ind_provided_scores_with_its_scales_and_the_masks_it_has(project):
+    write_ind_provided(project)
+    ind = run(project, "ind")["benchmarks"]["ind"]
+    assert (ind["n_windows"], ind["n_future"]) == (3, 2)  # the test windows only
+    assert ind["scene_masks"]["scenes_with_mask"] == ["ind_loc4_rec00"]
+    assert ind["scene_masks"]["scenes_without_mask"] == ["ind_loc4_rec01"]
+    assert ind["scene_masks"]["windows_with_mask"] == 2
+    m = ind["models"]["triangle"]["metrics"]
+    # The same scales as gates_2 / hyang_0 (orthoPxToMeter x 12): the same misses.
+    assert m["miss_rate"]["per_round"] == pytest.approx([0.0, 1 / 3])
+    # Off limits only where a mask exists: round 0 windows 10, 11 (0, 1/2); round 1 window 11.
+    assert m["off_limits_share"]["per_round"] == pytest.approx([1 / 4, 1 / 2])
+    assert ind["models"]["triangle"]["ground_truth"]["off_limits_share"] == pytest.approx(1 / 4)
+
+
+def test_ind_train_window_ids_are_not_in_the_test_split(project):
+    write_ind_provided(project)
+    path = project / "ind_predictions" / "sgan.parquet"
+    write_predictions(goal_model(np.array([10, 11, 30])), path,
+                      {"model": "sgan", "benchmark": "ind_long_term", "unit": "px",
+                       "split": "test", "seeds": [0]})
+    with pytest.raises(SystemExit, match=rf"{re.escape(str(path))}: 1 of 3 window id\(s\) are "
+                                         rf"not in .*tf2\.parquet, e\.g\. \[30\]"):
+        run(project, "ind")

@@ -1,13 +1,19 @@
-"""The report's section "Beyond the paper's tables": the metrics stage `score_predictions` computes
-from the stored long-term predictions (`metrics/beyond/long_term.json`, layout in
-`pipeline.harness.stored_scores`), read defensively as the rest of the page is (`lookups`).
+"""The report's section "Beyond the paper's tables": the metrics stages `score_predictions` and
+`score_short_term_predictions` compute from the stored predictions (`metrics/beyond/long_term.json`,
+`ind.json`, `short_term.json`; layouts in `pipeline.harness.stored_scores`), read defensively as
+the rest of the page is (`lookups`).
 
 - a table at t_f = 30 s: every model on the horizon table's windows, then each model on another
   table of that horizon (Y-net on the release's windows) in rows of their own, the off-limits share
   and collision rate beside the ground truth's;
 - a figure of small multiples, one panel per metric against the horizon, one line per model, the
   ground truth's share as a dashed reference, other tables' points as hollow stars;
-- the files that were not scored, with the reason each gives.
+- the files that were not scored, with the reason each gives;
+- the short-term benchmarks (TrajNet SDD in pixels, the ETH/UCY folds in metres): one row per
+  benchmark and model, the same metrics, each row's unit stated, and which windows had a mask;
+- inD: its rows where it was scored, else one line saying why it is absent.
+The long-term part and the short-term / inD parts are shown independently: either file may be
+missing without hiding the other.
 """
 
 from __future__ import annotations
@@ -21,6 +27,8 @@ from typing import Any
 from pipeline.report.lookups import Absent, Measured, MetricsStore, lookup
 
 BEYOND_FILE = "beyond/long_term.json"  # relative to the metrics folder
+SHORT_TERM_FILE = "beyond/short_term.json"
+IND_FILE = "beyond/ind.json"
 
 
 @dataclass(frozen=True)
@@ -63,6 +71,7 @@ class Row:
     rounds: Any
     cells: tuple[tuple[Measured | Absent, int], ...]  # (value, decimals)
     not_run: Absent | None = None
+    unit: str | None = None  # px | m (rows of benchmarks in different units)
 
 
 @dataclass(frozen=True)
@@ -209,17 +218,121 @@ def plot_panels(store: MetricsStore, record: Mapping[str, Any], models: Sequence
 def beyond_section(store: MetricsStore, t_f: int, models: Sequence[tuple[str, str]],
                    colours: Mapping[str, str], slot) -> dict[str, Any]:
     """What the template shows: the table at `t_f`, the figure (drawn through `slot`, as the page's
-    other figures), the thresholds and the files not scored; or why there is nothing."""
+    other figures), the thresholds and the files not scored, or why there is nothing; and, each on
+    its own, the short-term table and inD's rows or the reason it is absent."""
+    others = {"short_term": short_term_section(store), "ind": ind_section(store, models)}
     record = store.record(BEYOND_FILE)
     if not isinstance(record, Absent) and not (isinstance(record, dict)
                                                and isinstance(record.get("tables"), dict)):
         record = Absent(f"{store.where(BEYOND_FILE)} has no tables", "invalid")
     if isinstance(record, Absent):
-        return {"absent": record}
+        return {"absent": record, **others}
     figure = slot("beyond_horizons.png")
     drawn = plot_panels(store, record, models, colours, figure.path)
     return {"absent": None, "t_f": t_f, "columns": COLUMNS,
             "rows": rows_at(store, record, t_f, models),
             "thresholds": record.get("thresholds") or {}, "unit": record.get("unit", "px"),
             "not_scored": not_scored(record), "src": figure.src if drawn else None,
-            "source": store.where(BEYOND_FILE)}
+            "source": store.where(BEYOND_FILE), **others}
+
+
+# ---------------------------------------------------------------------------------------------
+# Short-term benchmarks and inD (`score_benchmarks` layout: {"benchmarks": {name: {"unit",
+# "scene_masks", "models": {model: record}}}})
+
+BENCHMARK_COLUMNS = (  # the long-term columns, units per row (decimals: `cell_decimals`)
+    Metric("ade", "min-ADE", "metrics", 2),
+    Metric("fde", "min-FDE", "metrics", 2),
+    Metric("fde_joint", "joint FDE", "metrics", 2),
+    Metric("ade_best_endpoint", "best-endpoint ADE", "metrics", 2),
+    Metric("miss_rate", "miss rate", "metrics", 3),
+    Metric("kde_nll", "KDE NLL", "metrics", 2),
+    Metric("off_limits_share", "off-limits share", "metrics", 3),
+    Metric("off_limits_share", "ground truth's off-limits share", "ground_truth", 3),
+    Metric("collision_rate", "collision rate", "metrics", 3),
+    Metric("collision_rate", "ground truth's collision rate", "ground_truth", 3),
+)
+DISTANCES = frozenset({"ade", "fde", "fde_joint", "ade_best_endpoint"})  # in the row's unit
+BENCHMARK_LABELS = {"sdd": "SDD (TrajNet)", "eth": "ETH", "hotel": "Hotel", "univ": "Univ",
+                    "zara1": "Zara1", "zara2": "Zara2", "ind": "inD"}
+SHORT_TERM_MODELS = (("ynet", "Y-net"), ("sgan", "S-GAN"), ("pecnet", "PECNet"))
+
+
+def cell_decimals(metric: Metric, unit: Any) -> int:
+    """Distances in metres get 3 decimals (ETH/UCY errors are tenths of a metre), pixels 2."""
+    return 3 if metric.key in DISTANCES and unit == "m" else metric.decimals
+
+
+def benchmark_row(store: MetricsStore, rel: str, name: str, node: Mapping[str, Any], model: str,
+                  label: str) -> Row:
+    entry = node["models"].get(model)
+    bench = BENCHMARK_LABELS.get(name, name)
+    unit = node.get("unit")
+    reason = entry.get("not_run_reason") if isinstance(entry, dict) else None
+    if isinstance(reason, str):
+        return Row(label, bench, None, None, (), Absent(reason, "status"), unit)
+    cells = tuple((lookup(store, rel, ("benchmarks", name, "models", model, c.part, c.key)),
+                   cell_decimals(c, unit)) for c in BENCHMARK_COLUMNS)
+    entry = entry if isinstance(entry, dict) else {}
+    return Row(label, bench, entry.get("n_windows"), entry.get("rounds"), cells, None, unit)
+
+
+def mask_note(name: str, node: Mapping[str, Any]) -> str | None:
+    """'SDD (TrajNet): 2829 of 2829 test windows inside a mask (hand labels ...)', or why none."""
+    masks = node.get("scene_masks")
+    if not isinstance(masks, dict):
+        return None
+    bench = BENCHMARK_LABELS.get(name, name)
+    if "absent" in masks:
+        return f"{bench}: no scene masks ({masks['absent']})"
+    classes = ", ".join(masks.get("forbidden_classes") or [])
+    without = masks.get("scenes_without_mask") or []
+    return (f"{bench}: {masks.get('windows_with_mask')} of {masks.get('n_windows')} windows in a "
+            f"scene with a mask, forbidden {classes}; {masks.get('source')}"
+            + (f"; no mask for {', '.join(without)}" if without else ""))
+
+
+def benchmark_table(store: MetricsStore, rel: str, models: Sequence[tuple[str, str]]
+                    ) -> dict[str, Any]:
+    """The rows of every benchmark of `rel` (benchmarks in the file's order, models in `models`
+    order then any other), the files not scored, the mask notes; or {"absent": why}."""
+    record = store.record(rel)
+    if not isinstance(record, Absent) and not (isinstance(record, dict)
+                                               and isinstance(record.get("benchmarks"), dict)):
+        record = Absent(f"{store.where(rel)} has no benchmarks", "invalid")
+    if isinstance(record, Absent):
+        return {"absent": record}
+    names = dict(models)
+    rows, not_run, notes = [], [], []
+    for name, node in record["benchmarks"].items():
+        if not (isinstance(node, dict) and isinstance(node.get("models"), dict)):
+            continue
+        held = node["models"]
+        order = [m for m, _ in models if m in held] + [m for m in held if m not in names]
+        for model in order:
+            row = benchmark_row(store, rel, name, node, model, names.get(model, model))
+            rows.append(row)
+            if row.not_run is not None:
+                not_run.append((f"{name}/{model}", row.not_run.reason))
+        note = mask_note(name, node)
+        if note:
+            notes.append(note)
+    return {"absent": None, "rows": rows, "not_scored": not_run, "mask_notes": notes,
+            "scored": any(r.not_run is None for r in rows),
+            "thresholds": record.get("thresholds") or {}, "source": store.where(rel)}
+
+
+def short_term_section(store: MetricsStore) -> dict[str, Any]:
+    """The short-term table (`score_short_term_predictions`), or why there is none."""
+    return {**benchmark_table(store, SHORT_TERM_FILE, SHORT_TERM_MODELS),
+            "columns": BENCHMARK_COLUMNS}
+
+
+def ind_section(store: MetricsStore, models: Sequence[tuple[str, str]]) -> dict[str, Any]:
+    """inD's rows where any file was scored, else the reasons its files give (inD not provided:
+    one reason for every model)."""
+    table = benchmark_table(store, IND_FILE, models)
+    if table["absent"] is None and not table["scored"]:
+        reasons = sorted({reason for _, reason in table["not_scored"]})
+        table["reasons"] = reasons
+    return {**table, "columns": BENCHMARK_COLUMNS}

@@ -5,9 +5,12 @@ explained absence, never a blank or a made-up number), the paper's values
 (`pipeline/report/paper_values.yaml`), the params and the data manifests, and writes
 
 - `reports/index.html` (jinja2, no scripts, no network): Tables 1-4 cell by cell (paper, ours as
-  mean and spread over evaluation rounds, relative difference coloured by size), the horizon and
-  K_a figures, the baselines' training-seed spread, the qualitative figure, "Beyond the paper's
-  tables" (`pipeline.report.beyond`: the metrics of stage `score_predictions`), the data audit and
+  mean and spread over evaluation rounds, relative difference coloured by size; every model
+  registered in params.yaml `models`, README "Your model here", as a Table 3 column of its own,
+  ours only: the paper has no value for it), the horizon and
+  K_a figures, the training-seed spread (baselines and Y-net), the qualitative figure, "Beyond the paper's
+  tables" (`pipeline.report.beyond`: the metrics of stages `score_predictions` and
+  `score_short_term_predictions`: long-term SDD, the short-term benchmarks, inD), the data audit and
   counts, segmentation scores, provenance;
 - its figures as PNG files (matplotlib, Agg) in `reports/figures/report/`;
 - the figure series as JSON for `dvc plots` in `reports/plots/`;
@@ -24,15 +27,18 @@ results is shown as its reason):
 - `ynet_horizons/tf<H>.json`: {"main": {...}} or {"not_run_reason": "..."} (t_f = 30: ynet_eval.json);
   `baselines/<model>_tf<H>.json`: {"ade": {"mean", "std"}, "fde", ..., "rounds", "k", "horizon"};
   `baselines/pecnet_ka.json`: [{"k_a", "k", "ade": {"mean", "std"}, "fde"}]
-- `baseline_seed_spread.json` (`pipeline.harness.seed_spread`): {"extra_seeds", "entries": [{"model",
-  "horizon", "evaluation", "over_training_seeds": {"ade": {"mean", "std"}, ...}, "main_round_std":
-  {"ade", "fde"}, "per_seed": [{"seed", "ade", "fde", "best_epoch", "best_val_ade"}]}]}
+- `baseline_seed_spread.json` (`pipeline.harness.seed_spread`): {"extra_seeds", "ynet_extra_seeds",
+  "entries": [{"model", "horizon", "evaluation", "over_training_seeds": {"ade": {"mean", "std"}, ...},
+  "main_round_std": {"ade", "fde"}, "per_seed": [{"seed", "ade", "fde", "best_epoch",
+  "best_val_ade"}]}]}; an entry with "not_run_reason" (Y-net where the profile trains no extra seed)
+  has no "over_training_seeds"
 - `short_term/sdd.json`: {"rounds", "models": {<model>: {"k20"|"k5": {"ade": {"mean", "std"}, "fde"}}}}
 - `short_term/ethucy_<scene>.json`: {"rounds", "models": {<model>: {"ade": {...}, "fde": {...}}}}
 - `ind_benchmark.json`: as `ynet_eval.json` plus "baselines": {<model>: {"ade", "fde"}} (or a status record)
 - `beyond/long_term.json`: {"thresholds", "tables": {<table>: {"t_f", "models": {<model>: {"rounds",
   "metrics": {<metric>: {"mean", "std"}}, "ground_truth": {<metric>: value}} or {"not_run_reason"}}}}}
-  (`pipeline.harness.stored_scores`)
+  (`pipeline.harness.stored_scores`); `beyond/short_term.json` and `beyond/ind.json`: {"thresholds",
+  "benchmarks": {<name>: {"unit", "scene_masks", "models": {<model>: the same model record}}}}
 - `segmentation.json`: {"miou", "iou": {class: iou}}; the data files `windows.json`,
   `data_audit.json`, `horizon_windows.json`, `chain_bias.json`, and `sdd_sources.json` (stage
   `tracks`: {"copy": {"provided", "path"}, "videos": {<video>: {"origin", "file", "sha256",
@@ -65,6 +71,7 @@ import numpy as np
 import yaml
 
 from pipeline.config import ReportParams
+from pipeline.models import ModelEntry
 from pipeline.report.beyond import beyond_section
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)
@@ -73,17 +80,27 @@ from pipeline.data.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
 TEMPLATE = Path(__file__).parent / "templates" / "report.html.j2"
 METRICS = ("ade", "fde")
-# Models this pipeline trains or evaluates; any other model of the paper is "paper only".
-PIPELINE_MODELS = frozenset({"ynet", "sgan", "pecnet", "rpecnet", "constant_velocity"})
+# The paper's models this pipeline trains or evaluates with stages of their own; any other model
+# of the paper is "paper only". Every model registered in params.yaml `models` (README "Your model
+# here"; constant velocity is one) follows them: `horizon_models`, `model_colours`.
+PIPELINE_MODELS = frozenset({"ynet", "sgan", "pecnet", "rpecnet"})
 HORIZON_MODELS = (("ynet", "Y-net"), ("pecnet", "PECNet"), ("rpecnet", "R-PECNet"),
-                  ("sgan", "S-GAN"), ("constant_velocity", "Constant velocity"))
-MODEL_COLOURS = {"ynet": "#d62728", "pecnet": "#1f77b4", "rpecnet": "#9467bd",
-                 "sgan": "#2ca02c", "constant_velocity": "#7f7f7f"}
+                  ("sgan", "S-GAN"))
+MODEL_COLOURS = {"ynet": "#d62728", "pecnet": "#1f77b4", "rpecnet": "#9467bd", "sgan": "#2ca02c"}
 DATASETS = {"sdd": "SDD", "ind": "inD"}
 LONG_TERM_TF = 30  # the long-term tables' horizon (s)
 LONG_TERM_KE = 20  # and their K_e (baselines: K)
 QUALITATIVE_KEYS = ("scene_image", "past", "future", "goal_heatmap", "sampled_goals",
                     "trajectory_heatmap", "predictions")
+
+
+def horizon_models(registered: Mapping[str, ModelEntry]) -> tuple[tuple[str, str], ...]:
+    """(key, label) of every model with a series per horizon: the paper's, then the registered."""
+    return (*HORIZON_MODELS, *((name, entry.label) for name, entry in registered.items()))
+
+
+def model_colours(registered: Mapping[str, ModelEntry]) -> dict[str, str]:
+    return {**MODEL_COLOURS, **{name: entry.colour for name, entry in registered.items()}}
 
 
 
@@ -106,7 +123,9 @@ class Cell:
         if self.ours is None:
             return "paper-only"
         if isinstance(self.ours, Measured):
-            return "mismatch" if self.ours.mismatch else "measured"
+            if self.ours.mismatch:
+                return "mismatch"
+            return "measured" if self.paper is not None else "ours-only"  # a registered model
         return "absent"
 
 
@@ -268,22 +287,40 @@ def find_long_term_joint(store: MetricsStore, c: Mapping, metric: str,
     return find_long_term(store, c, f"{metric}_joint", profile)
 
 
+def with_registered(spec: Mapping, registered: Mapping[str, ModelEntry]) -> dict:
+    """Table 3's spec with a column per registered model after the paper's SDD columns: no paper
+    value (the paper never ran it), ours from `baselines/<name>_tf30.json` as for a baseline."""
+    cols = list(spec["columns"])
+    at = max((i + 1 for i, c in enumerate(cols) if c["dataset"] == "sdd"), default=len(cols))
+    added = [{"dataset": "sdd", "model": name, "label": entry.label, "k_a": 1, "ade": None,
+              "fde": None, "registered": True} for name, entry in registered.items()]
+    return {**spec, "columns": cols[:at] + added + cols[at:]}
+
+
 def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams,
                    profile: str | None = None) -> Table:
-    """Table 3: long term (t_f = 30 s), SDD and inD, baselines and Y-net at K_a = 1, 2, 5."""
+    """Table 3: long term (t_f = 30 s), SDD and inD, baselines and Y-net at K_a = 1, 2, 5, and any
+    registered model (`with_registered`)."""
     cols = spec["columns"]
     rows = []
     for metric in METRICS:
-        cells = [compare(c[metric],
-                         ours_if_trained(c["model"], lambda c=c: find_long_term(store, c, metric, profile)),
-                         params, find_long_term_joint(store, c, metric, profile))
-                 for c in cols]
+        cells = []
+        for c in cols:
+            def find(c=c):
+                return find_long_term(store, c, metric, profile)
+            ours = find() if c.get("registered") else ours_if_trained(c["model"], find)
+            cells.append(compare(c[metric], ours, params,
+                                 find_long_term_joint(store, c, metric, profile)))
         rows.append(Row(metric.upper(), tuple(cells)))
     columns = tuple(Column(DATASETS[c["dataset"]], c["label"], f"K_a = {c['k_a']}") for c in cols)
+    registered = [c["label"] for c in cols if c.get("registered")]
     return Table("sdd_long", spec["number"], spec["title"],
                  "t_f = 30 s, t_p = 5 s, K_e = 20 (baselines K = 20). Ours: SDD Y-net from "
                  "metrics/ynet_eval.json (main; ka_grid for K_a > 1), SDD baselines from "
-                 "metrics/baselines/<model>_tf30.json, inD from metrics/ind_benchmark.json.",
+                 "metrics/baselines/<model>_tf30.json, inD from metrics/ind_benchmark.json."
+                 + (f" {', '.join(registered)}: registered in params.yaml `models` (README \"Your "
+                    "model here\"), from metrics/baselines/<model>_tf30.json; the paper has no "
+                    "value for them (\u2014)." if registered else ""),
                  spec["unit"], 2, columns, tuple(rows))
 
 
@@ -316,23 +353,28 @@ TABLE_BUILDERS = {"sdd_short": table_sdd_short, "eth_ucy": table_eth_ucy,
 
 
 def build_tables(paper: Mapping, store: MetricsStore, params: ReportParams,
-                 profile: str | None = None) -> list[Table]:
+                 profile: str | None = None,
+                 registered: Mapping[str, ModelEntry] | None = None) -> list[Table]:
     """The paper's four tables with ours beside them; `profile`: the one the stages ran under (a
-    file of another profile is shown as a mismatch, not compared)."""
-    tables = [build(paper[key], store, params, profile) for key, build in TABLE_BUILDERS.items()]
+    file of another profile is shown as a mismatch, not compared); `registered`: the models of
+    params.yaml `models`, each a column of Table 3 (`with_registered`). Table 4 is Y-net's own
+    TTST / CWS ablation: no other model has those switches, so it has no column for them."""
+    specs = {**paper, "sdd_long": with_registered(paper["sdd_long"], registered or {})}
+    tables = [build(specs[key], store, params, profile) for key, build in TABLE_BUILDERS.items()]
     return sorted(tables, key=lambda t: t.number)
 
 
 @dataclass(frozen=True)
 class TableSummary:
     table: Table
-    counts: Mapping[str, int]  # close, mid, far, mismatch, absent, paper-only
+    counts: Mapping[str, int]  # close, mid, far, mismatch, absent, paper-only, ours-only
     reasons: tuple[str, ...]  # distinct reasons of the absent cells
 
 
 def summarize(table: Table) -> TableSummary:
     """What a reviewer needs first: how many of the table's numbers we reproduce, and gaps."""
-    counts = {key: 0 for key in ("close", "mid", "far", "mismatch", "absent", "paper-only")}
+    counts = {key: 0 for key in ("close", "mid", "far", "mismatch", "absent", "paper-only",
+                                 "ours-only")}
     reasons: list[str] = []
     for cell in table.cells():
         key = cell.band or cell.kind
@@ -353,7 +395,7 @@ def headline_metrics(tables: Iterable[Table], horizons: Iterable[Series]) -> dic
     One small file per model (table column) with our measured ADE and FDE, so the DVC table has
     two value columns and a row per model; tables of one row per metric give that row's cells, the
     ETH/UCY table its AVG row. Y-net's horizon points are added as `figure4_horizons/ynet_tf<t>`.
-    Unmeasured cells are left out.
+    Unmeasured cells are left out; a registered model's (ours only) are in.
     """
     files: dict[str, dict[str, float]] = {}
     for table in tables:
@@ -363,7 +405,7 @@ def headline_metrics(tables: Iterable[Table], horizons: Iterable[Series]) -> dic
             for i, column in enumerate(table.columns):
                 for metric, row in metric_rows.items():
                     cell = row.cells[i]
-                    if cell.kind == "measured":
+                    if cell.kind in ("measured", "ours-only"):
                         name = f"{folder}/{slug(column.group, column.label, column.sub)}.json"
                         files.setdefault(name, {})[metric] = cell.ours.mean
         else:  # rows per scene and AVG; columns model x metric
@@ -397,10 +439,13 @@ def split_points(key: str, label: str, found: Iterable[tuple[int | None, Measure
                   tuple((x, v) for x, v in found if isinstance(v, Absent)))
 
 
-def horizon_series(store: MetricsStore, horizons: Iterable[int]) -> list[Series]:
-    """ADE per horizon for every model of the paper's horizon figure."""
+def horizon_series(store: MetricsStore, horizons: Iterable[int],
+                   models: Iterable[tuple[str, str]] = HORIZON_MODELS) -> list[Series]:
+    """ADE per horizon for every model of the paper's horizon figure and every registered one
+    (`models`: (key, label), `horizon_models`)."""
+    horizons = list(horizons)
     out = []
-    for key, label in HORIZON_MODELS:
+    for key, label in models:
         found = []
         for h in horizons:
             if key == "ynet":  # the main Y-net is the t_f = 30 point
@@ -485,18 +530,19 @@ def _pyplot():
     return plt
 
 
-def series_colours(keys: Iterable[str]) -> dict[str, Any]:
-    """A model's colour for its series; Y-net's K_e series in shades of its red, light to dark."""
+def series_colours(keys: Iterable[str], models: Mapping[str, str] = MODEL_COLOURS) -> dict[str, Any]:
+    """A model's colour (`models`: key -> colour) for its series; Y-net's K_e series in shades of
+    its red, light to dark."""
     plt = _pyplot()
     keys = list(keys)
     shades = [k for k in keys if k.startswith("ynet_ke")]
     colours = {k: plt.cm.Reds(0.45 + 0.5 * i / max(len(shades) - 1, 1)) for i, k in enumerate(shades)}
-    return {k: colours.get(k) or MODEL_COLOURS.get(k.split("_k")[0] if k.startswith("pecnet_k") else k)
+    return {k: colours.get(k) or models.get(k.split("_k")[0] if k.startswith("pecnet_k") else k)
             for k in keys}
 
 
 def plot_series(series: list[Series], paper_points: list[tuple[float, float, str, str, str]],
-                xlabel: str, path: Path) -> bool:
+                xlabel: str, path: Path, models: Mapping[str, str] = MODEL_COLOURS) -> bool:
     """Lines with error bars (std over rounds) per series, plus labelled paper points.
 
     `paper_points`: (x, y, series key for the colour, legend label, name written beside the
@@ -507,7 +553,8 @@ def plot_series(series: list[Series], paper_points: list[tuple[float, float, str
     if not drawn:
         return False
     plt = _pyplot()
-    colours = series_colours([s.key for s in series] + [key for _, _, key, _, _ in paper_points])
+    colours = series_colours([s.key for s in series] + [key for _, _, key, _, _ in paper_points],
+                             models)
     fig, ax = plt.subplots(figsize=(7, 4.2), dpi=110)
     for s in drawn:
         xs = [x for x, _ in s.points]
@@ -549,7 +596,7 @@ def load_qualitative(path: Path) -> Qualitative | Absent:
     try:
         with np.load(path, allow_pickle=False) as npz:
             arrays = {name: npz[name] for name in npz.files}
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, EOFError) as e:  # EOFError: an empty file
         return Absent(f"{path.as_posix()} unreadable: {e}", "invalid")
     indices = sorted({int(m.group(1)) for name in arrays if (m := re.search(r"_(\d+)$", name))})
     examples, problems = [], []
@@ -619,7 +666,7 @@ def plot_qualitative(examples: Iterable[Mapping[str, np.ndarray]], path: Path) -
 
 
 # ---------------------------------------------------------------------------------------------
-# Training-seed spread of the baselines
+# Training-seed spread of the baselines and the main Y-net
 
 
 SEED_SPREAD_FILE = "baseline_seed_spread.json"
@@ -627,9 +674,10 @@ SEED_SPREAD_FILE = "baseline_seed_spread.json"
 
 @dataclass(frozen=True)
 class SeedSpreadRow:
-    """One baseline at one horizon: ADE / FDE over training seeds (mean and std, `Measured` with
+    """One model at one horizon: ADE / FDE over training seeds (mean and std, `Measured` with
     the seed count as its rounds), the main model's std over evaluation rounds, and each seed's
-    (seed, ADE, FDE, kept epoch, its validation ADE)."""
+    (seed, ADE, FDE, kept epoch, its validation ADE); or, with `not_run`, why no extra seed was
+    trained (Y-net in the `cpu` profile), the main seed's values still listed."""
     model: str
     horizon: int
     ade: Measured | Absent
@@ -637,6 +685,7 @@ class SeedSpreadRow:
     ade_round_std: float | None
     fde_round_std: float | None
     per_seed: tuple[tuple[Any, Any, Any, Any, Any], ...]
+    not_run: str | None = None
 
 
 def seed_spread_row(entry: Any, source: str) -> SeedSpreadRow | Absent:
@@ -648,6 +697,12 @@ def seed_spread_row(entry: Any, source: str) -> SeedSpreadRow | Absent:
     where = f"{source}: {entry['model']} t_f = {entry['horizon']}"
     per_seed = tuple((s.get("seed"), s.get("ade"), s.get("fde"), s.get("best_epoch"), s.get("best_val_ade"))
                      for s in seeds if isinstance(s, dict))
+    if entry.get("not_run_reason"):
+        why = str(entry["not_run_reason"])
+        return SeedSpreadRow(
+            model=dict(HORIZON_MODELS).get(entry["model"], str(entry["model"])), horizon=entry["horizon"],
+            ade=Absent(why, "status"), fde=Absent(why, "status"), ade_round_std=None,
+            fde_round_std=None, per_seed=per_seed, not_run=why)
     return SeedSpreadRow(
         model=dict(HORIZON_MODELS).get(entry["model"], str(entry["model"])), horizon=entry["horizon"],
         ade=as_measured(over.get("ade"), len(per_seed), f"{where}: ade over training seeds"),
@@ -660,7 +715,8 @@ def seed_spread_row(entry: Any, source: str) -> SeedSpreadRow | Absent:
 def seed_spread_section(store: MetricsStore) -> dict[str, Any]:
     """The table "Training-seed spread" (stage `baseline_seed_spread`), or why there is none."""
     record = store.record(SEED_SPREAD_FILE)
-    none = {"absent": None, "rows": [], "problems": [], "extra_seeds": None, "evaluation": {}}
+    none = {"absent": None, "rows": [], "problems": [], "extra_seeds": None, "evaluation": {},
+            "ynet_extra_seeds": None, "ynet_evaluation": {}}
     if isinstance(record, Absent):
         return {**none, "absent": record}
     if not isinstance(record, dict) or not isinstance(record.get("entries"), list):
@@ -669,9 +725,13 @@ def seed_spread_section(store: MetricsStore) -> dict[str, Any]:
     evaluation = next((e["evaluation"] for e in record["entries"] if isinstance(e, dict)
                        and isinstance(e.get("evaluation"), dict)
                        and {"split", "k", "rounds", "seed"} <= set(e["evaluation"])), {})
+    ynet_evaluation = next((e["evaluation"] for e in record["entries"] if isinstance(e, dict)
+                            and e.get("model") == "ynet" and isinstance(e.get("evaluation"), dict)
+                            and {"k_e", "k_a", "rounds"} <= set(e["evaluation"])), {})
     return {**none, "rows": [row for row in found if isinstance(row, SeedSpreadRow)],
             "problems": [row.reason for row in found if isinstance(row, Absent)],
-            "extra_seeds": record.get("extra_seeds"), "evaluation": evaluation}
+            "extra_seeds": record.get("extra_seeds"), "evaluation": evaluation,
+            "ynet_extra_seeds": record.get("ynet_extra_seeds"), "ynet_evaluation": ynet_evaluation}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1081,17 +1141,20 @@ class FigureSlot:
 
 
 def figure_sections(paper: Mapping, store: MetricsStore, horizons: list[int], qualitative_path: Path,
-                    slot) -> tuple[dict, dict]:
-    """Figures 4-6 drawn (when there is something to draw) and described; the dvc plots series."""
-    h_series, k_series = horizon_series(store, horizons), ka_series(store)
-    names = dict(HORIZON_MODELS)
+                    slot, registered: Mapping[str, ModelEntry] | None = None) -> tuple[dict, dict]:
+    """Figures 4-6 drawn (when there is something to draw) and described; the dvc plots series.
+    Figure 4 has a line for every `registered` model too."""
+    registered = registered or {}
+    models, colours = horizon_models(registered), model_colours(registered)
+    h_series, k_series = horizon_series(store, horizons, models), ka_series(store)
+    names = dict(models)
     h_paper = [(LONG_TERM_TF, y, key, "paper, Table 3 (t_f = 30 s)", f"{names.get(key, key)} (paper)")
                for key, y in paper_long_term_points(paper).items()]
     k_paper = [(x, y, f"ynet_ke{LONG_TERM_KE}", "paper, Table 3 (Y-net K_e = 20)", "")
                for x, y in paper_ka_points(paper)]
     h_slot, k_slot, q_slot = slot("horizon_ade.png"), slot("ka_ade.png"), slot("qualitative.png")
-    h_drawn = plot_series(h_series, h_paper, "prediction horizon t_f (s)", h_slot.path)
-    k_drawn = plot_series(k_series, k_paper, "K_a (paths per goal)", k_slot.path)
+    h_drawn = plot_series(h_series, h_paper, "prediction horizon t_f (s)", h_slot.path, colours)
+    k_drawn = plot_series(k_series, k_paper, "K_a (paths per goal)", k_slot.path, colours)
     qualitative = load_qualitative(qualitative_path)
     if isinstance(qualitative, Qualitative):
         plot_qualitative(qualitative.examples, q_slot.path)
@@ -1152,31 +1215,34 @@ def provenance_section(inputs: Inputs, lock: Mapping[str, Any] | Absent, params:
 
 
 def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_params: ReportParams,
-                  figures_dir: Path, final_figures_dir: Path, html_dir: Path
-                  ) -> tuple[dict, dict, dict]:
+                  figures_dir: Path, final_figures_dir: Path, html_dir: Path,
+                  registered: Mapping[str, ModelEntry] | None = None) -> tuple[dict, dict, dict]:
     """Everything the template shows, the dvc plots series and the headline metrics files; figures
     drawn into `figures_dir`. `lock`: dvc.lock as `read_lock` gives it (the params the stages ran
-    with, the outputs, the raw data's hashes).
+    with, the outputs, the raw data's hashes); `registered`: params.yaml `models`, shown in Table
+    3, Figure 4 and "Beyond the paper's tables" beside the paper's models.
 
     `final_figures_dir` is where those figures will be after the rename (for the <img> paths).
     """
+    registered = registered or {}
     paper = yaml.safe_load(inputs.paper.read_text())
     params = lock_params(lock)
     store = load_metrics(inputs.metrics, inputs.metrics.as_posix())
-    tables = build_tables(paper, store, report_params, params.get("profile"))
+    tables = build_tables(paper, store, report_params, params.get("profile"), registered)
     horizons = (params.get("windows") or {}).get("horizons") or []
 
     def slot(name: str) -> FigureSlot:
         return FigureSlot(figures_dir / name, rel_src(final_figures_dir / name, html_dir))
 
-    figures, plots = figure_sections(paper, store, horizons, inputs.qualitative, slot)
+    figures, plots = figure_sections(paper, store, horizons, inputs.qualitative, slot, registered)
     context = {
         "generated": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "bands": report_params,
         "summaries": [summarize(t) for t in tables],
         "tables": tables,
         **figures,
-        "beyond": beyond_section(store, LONG_TERM_TF, HORIZON_MODELS, MODEL_COLOURS, slot),
+        "beyond": beyond_section(store, LONG_TERM_TF, horizon_models(registered),
+                                 model_colours(registered), slot),
         "seed_spread": seed_spread_section(store),
         "animations": animation_section(inputs.animations, html_dir),
         "data": data_section(store, inputs.scene_counts),
@@ -1206,14 +1272,15 @@ def read_text(path: Path) -> str:
 
 def write_report(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_params: ReportParams,
                  out: Path, figures: Path, plots: Path, headline: Path,
-                 template: Path = TEMPLATE) -> None:
+                 template: Path = TEMPLATE,
+                 registered: Mapping[str, ModelEntry] | None = None) -> None:
     """Render everything into temporary places, then rename figures, plots, headline metrics and
     the page (folders 0755 and the page 0644, readable by other users)."""
     out.parent.mkdir(parents=True, exist_ok=True)
     with (atomic_dir(figures, mode=0o755) as staged_figures, atomic_dir(plots, mode=0o755) as staged_plots,
           atomic_dir(headline, mode=0o755) as staged_headline):
         context, series, numbers = build_context(inputs, lock, report_params, staged_figures, figures,
-                                                 out.parent)
+                                                 out.parent, registered)
         html = render_html(context, template)
         for name, rows in series.items():
             (staged_plots / name).write_text(json.dumps(rows, indent=1) + "\n")

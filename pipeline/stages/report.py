@@ -4,7 +4,9 @@ Reads every metrics file that exists under `--metrics` (a missing or malformed o
 explained absence), the paper's values (`--paper`), the data manifests and `dvc.lock` (provenance,
 and the params each stage ran with: the page shows those, not params.yaml, so editing a section no
 stage reads re-renders nothing); the page's contents are documented in `pipeline.report.page`.
-Also writes `--headline`, the small ADE / FDE files `dvc metrics show` prints. Params: `report`.
+Also writes `--headline`, the small ADE / FDE files `dvc metrics show` prints. Params: `report`,
+`models` (the registered models: a Table 3 column, a Figure 4 line and "Beyond the paper's tables"
+rows each, under their label and colour; README "Your model here").
 
     python -m pipeline.stages.report --metrics metrics --paper pipeline/report/paper_values.yaml \
         --scene-counts reports/data/windows_per_scene.json \
@@ -21,6 +23,7 @@ import os
 from pathlib import Path
 
 from pipeline.config import ReportParams, load_section, read_params
+from pipeline.models import load_models
 from pipeline.report.page import Inputs, read_lock, write_report
 
 
@@ -38,14 +41,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--animations", type=Path, default=Path("reports/figures/animations"),
                         help="stage animations' folder (index.json and the animated windows)")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"),
-                        help="read for its `report` section only")
+                        help="read for its `report` and `models` sections only")
     parser.add_argument("--out", type=Path, required=True, help="the HTML page written")
     parser.add_argument("--figures", type=Path, required=True, help="folder of the page's PNG figures")
     parser.add_argument("--plots", type=Path, required=True, help="folder of the dvc plots JSON series")
     parser.add_argument("--headline", type=Path, required=True,
                         help="folder of the headline metrics (ADE / FDE per table and model)")
     args = parser.parse_args(argv)
-    report_params = load_section(ReportParams, "report", read_params(args.params))
+    params = read_params(args.params)
+    report_params = load_section(ReportParams, "report", params)
     own_outputs = tuple(Path(os.path.relpath(path.resolve(), Path.cwd())).as_posix()
                         for path in (args.out, args.figures, args.plots, args.headline,
                                      args.stage_times))  # the stage times: make repro writes them
@@ -53,7 +57,7 @@ def main(argv: list[str] | None = None) -> None:
                     args.qualitative, args.manifests, own_outputs=own_outputs,
                     stage_times=args.stage_times, animations=args.animations)
     write_report(inputs, read_lock(args.dvc_lock), report_params, args.out, args.figures,
-                 args.plots, args.headline)
+                 args.plots, args.headline, registered=load_models(params))
 
 
 if __name__ == "__main__":

@@ -1,17 +1,20 @@
-"""Stage `score_predictions`: the metrics beyond the paper's tables, from the stored long-term SDD
+"""Stage `score_predictions`: the metrics beyond the paper's tables, from the stored long-term
 predictions alone (no model runs): best-endpoint ADE, miss rate, KDE NLL, off-limits share beside
 the ground truth's, collisions, and the paper's min-ADE / min-FDE, each as mean and std over the
 stored rounds and per scene (`pipeline.harness.stored_scores`).
 
-Scores `<predictions>/tf<H>/<model>.parquet` against `<horizon-windows>/tf<H>.parquet` for every
-t_f in `windows.horizons`, and `<predictions>/<release>/<model>.parquet` against the release's
-table (named after its file, e.g. `release_tf30`). Params: `score_predictions`,
-`windows.horizons`, `windows.n_past`.
+Long-term SDD (`--out`): scores `<predictions>/tf<H>/<model>.parquet` against
+`<horizon-windows>/tf<H>.parquet` for every t_f in `windows.horizons`, and
+`<predictions>/<release>/<model>.parquet` against the release's table (named after its file, e.g.
+`release_tf30`). inD (`--ind-out`): `<ind-predictions>/<model>.parquet` against the test windows of
+`ind_windows`' t_f = 30 s table, or, inD not provided, the files listed with their reason. Params:
+`score_predictions`, `windows.horizons`, `windows.n_past`.
 
     python -m pipeline.stages.score_predictions --predictions data/predictions/long_term \
         --horizon-windows data/horizon_windows --release-windows data/windows/release_tf30.parquet \
         --labels data/labels --scales data/raw/sdd/estimated_scales.yaml \
-        --out metrics/beyond/long_term.json
+        --ind data/ind --ind-predictions data/predictions/ind \
+        --out metrics/beyond/long_term.json --ind-out metrics/beyond/ind.json
 """
 
 from __future__ import annotations
@@ -20,8 +23,12 @@ import argparse
 from pathlib import Path
 
 from pipeline.config import ScorePredictionsParams, WindowParams, load_section, read_params
-from pipeline.harness.stored_scores import SceneMaps, score_tables
+from pipeline.harness.stored_scores import (ind_benchmark_spec, long_term_benchmark_spec,
+                                            read_scales, score_benchmarks, score_tables,
+                                            sdd_label_masks)
 from pipeline.io import exit_on_bad_intermediate, write_json
+
+IND = "ind"  # inD's name in its record
 
 
 @exit_on_bad_intermediate
@@ -36,17 +43,24 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--labels", type=Path, required=True, help="hand-labelled masks folder")
     parser.add_argument("--scales", type=Path, required=True,
                         help="SDD's estimated_scales.yaml (metres per pixel per video)")
-    parser.add_argument("--out", type=Path, required=True, help="metrics JSON written")
+    parser.add_argument("--ind", type=Path, required=True, help="output folder of ind_windows")
+    parser.add_argument("--ind-predictions", type=Path, required=True,
+                        help="folder of inD's <model>.parquet predictions files")
+    parser.add_argument("--out", type=Path, required=True, help="long-term SDD metrics JSON")
+    parser.add_argument("--ind-out", type=Path, required=True, help="inD metrics JSON")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"))
     args = parser.parse_args(argv)
     params = read_params(args.params)
     settings = load_section(ScorePredictionsParams, "score_predictions", params)
     windows = load_section(WindowParams, "windows", params)
-    tables = {f"tf{h}": args.horizon_windows / f"tf{h}.parquet" for h in windows.horizons}
-    tables[args.release_windows.stem] = args.release_windows
-    record = score_tables(tables, args.predictions, windows.n_past,
-                          SceneMaps(args.labels, args.scales), settings)
-    write_json(record, args.out)
+    masks, scales = sdd_label_masks(args.labels, settings.forbidden_classes), read_scales(args.scales)
+    paths = {f"tf{h}": args.horizon_windows / f"tf{h}.parquet" for h in windows.horizons}
+    paths[args.release_windows.stem] = args.release_windows
+    tables = {name: long_term_benchmark_spec(path, windows.n_past, masks, scales, args.scales)
+              for name, path in paths.items()}
+    ind = ind_benchmark_spec(args.ind, settings.forbidden_classes)
+    write_json(score_tables(tables, args.predictions, settings), args.out)
+    write_json(score_benchmarks({IND: (ind, args.ind_predictions)}, settings), args.ind_out)
 
 
 if __name__ == "__main__":

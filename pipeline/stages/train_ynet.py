@@ -1,7 +1,8 @@
 """Stage `train_ynet`: Y-net on the release's t_f = 30 train windows, the epoch selected on val.
 
 One scene per batch under rotation/flip augmentation; after every epoch a validation score
-(never the test set), a checkpoint and the best weights so far (`pipeline.runners.ynet_training`).
+(never the test set), a checkpoint and the best weights so far (`pipeline.runners.ynet_main`,
+`pipeline.runners.ynet_training`; `train_ynet_seed` is the same with another training seed).
 Resumes after an interruption; SIGTERM / SIGINT or `runtime.max_minutes` checkpoint mid-epoch and
 exit 143 / 130 / 75. Params: `ynet.<profile>`, `profile`, `runtime.device`, `runtime.max_minutes`
 (and `windows.n_past`, passed as --n-past).
@@ -17,15 +18,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import pandas as pd
-
 from pipeline.config import RuntimeParams, load_profile, load_section, read_params
-from pipeline.data.semantic_maps import load_semantic_maps
-from pipeline.data.window_table import to_arrays
 from pipeline.device import describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
-from pipeline.runners.ynet_training import YnetSettings, image_sizes, scale_waypoints, train
+from pipeline.runners.ynet_main import train_main
+from pipeline.runners.ynet_training import YnetSettings
 
 
 @exit_when_stopped
@@ -46,18 +44,9 @@ def main(argv: list[str] | None = None) -> None:
     runtime = load_section(RuntimeParams, "runtime", params)
     device = select_device(runtime.device)
 
-    table = pd.read_parquet(args.windows)
-    train_arrays = to_arrays(table[table["split"] == "train"], args.n_past)
-    val_arrays = to_arrays(table[table["split"] == "val"], args.n_past)
-    n_future = train_arrays.future.shape[1]
-    if n_future != 30:
-        settings.waypoints = scale_waypoints(settings.waypoints, n_future)
-    semantic_maps = load_semantic_maps(args.semantic_maps)
-    sizes = image_sizes(args.sdd, set(train_arrays.scene_id) | set(val_arrays.scene_id))
     with Preemption(runtime.max_minutes) as preemption:
-        summary = train(train_arrays, val_arrays, semantic_maps, sizes, settings, args.n_past,
-                        args.checkpoint_dir / "last.pt", args.model, args.history, device=device,
-                        preemption=preemption)
+        summary = train_main(args.windows, args.semantic_maps, args.sdd, args.n_past, settings,
+                             args.checkpoint_dir, args.model, args.history, device, preemption)
     print(f"train_ynet: trained on {describe(device)}")
     summary["profile"] = params["profile"]
     write_json(summary, args.metrics)

@@ -1,0 +1,161 @@
+"""Fitting and scoring one registered model (params.yaml `models`, contract: `pipeline.models`)
+at one horizon: what the stages `fit_model` and `predict_model` do.
+
+`fit_to_workdir` hands the model the train and val windows of a horizon table and a fresh
+workdir, times the fit and records its facts in the workdir (`FIT_FACTS`); the workdir replaces
+the old one only when `fit` returns. `predict_to_files` scores the model exactly as
+`baseline_runs.score_to_file` scores a baseline: split, K, rounds and round seeds of
+`evaluate_baseline`, the shared best-of-K metric over seeded rounds, the metrics file in the
+layout of `metrics/baselines/<model>_tf<H>.json` and every round's predictions in the stored
+format (`pipeline.harness.predictions`), which `score_predictions` then scores beside the others.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pipeline.config import (EvaluateBaselineParams, ParamsError, TrainBaselineParams, WindowParams,
+                             load_section)
+from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline.harness.metrics import seeded_rounds, window_errors
+from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
+from pipeline.io import atomic_dir, write_json
+from pipeline.models import ModelEntry, WindowSet, check_predictions, load_model, load_models
+
+FIT_FACTS = "fit.json"  # written by the harness into every workdir, beside the model's own files
+
+
+def registered(name: str, params: dict) -> ModelEntry:
+    """Model `name`'s registry line, or a ParamsError listing the registered ones."""
+    models = load_models(params)
+    if name not in models:
+        raise ParamsError(f"params.yaml:models: no model {name!r}; registered: {sorted(models)}")
+    return models[name]
+
+
+def horizon_windows(table: Path, n_past: int, horizon: int) -> WindowArrays:
+    """The windows of a horizon table as arrays; fails unless they are n_past + horizon steps."""
+    frame = pd.read_parquet(table)
+    horizons = sorted(frame["t_f"].unique().tolist())
+    if horizons != [horizon]:
+        raise ValueError(f"{table}: windows of horizon(s) {horizons}, expected {horizon}")
+    arrays = to_arrays(frame, n_past)
+    if arrays.future.shape[1] != horizon:
+        raise ValueError(f"{table}: {arrays.future.shape[1]} future steps for t_f = {horizon} s")
+    return arrays
+
+
+def window_set(arrays: WindowArrays, split: str, with_future: bool) -> WindowSet:
+    """The windows of `split` as the model sees them; the future only `with_future`."""
+    keep = arrays.split == split
+    return WindowSet(past=arrays.past[keep], future=arrays.future[keep] if with_future else None,
+                     n_future=arrays.future.shape[1], window_id=arrays.window_id[keep],
+                     scene_id=arrays.scene_id[keep], track_id=arrays.track_id[keep],
+                     first_frame=arrays.first_frame[keep])
+
+
+def limit_torch_threads(threads: int) -> None:
+    """`threads` torch CPU threads when the model imported torch (constant velocity does, through
+    the baselines); a model without torch does not pay for importing it."""
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(threads)
+
+
+def fit_to_workdir(name: str, horizon: int, table: Path, workdir: Path, params: dict) -> dict:
+    """What stage `fit_model` does: model `name` fitted on `table`'s train windows (val for
+    selection) under `train_baseline` (seed, threads) and `windows.n_past` of `params`, its files
+    and the fit's facts (returned too) written to `workdir`."""
+    entry = registered(name, params)
+    settings = load_section(TrainBaselineParams, "train_baseline", params)
+    n_past = load_section(WindowParams, "windows", params).n_past
+    arrays = horizon_windows(table, n_past, horizon)
+    train = window_set(arrays, "train", with_future=True)
+    val = window_set(arrays, "val", with_future=True)
+    if len(train) == 0:
+        raise ValueError(f"{table}: no train windows to fit {name!r} on")
+    model = load_model(entry)
+    limit_torch_threads(settings.threads)
+    print(f"fit_model {name} t_f = {horizon}: {len(train)} train, {len(val)} val windows", flush=True)
+    with atomic_dir(workdir, mode=0o755) as staged:
+        t0 = time.perf_counter()
+        model.fit(train, val, staged, settings.seed)
+        seconds = time.perf_counter() - t0
+        if (staged / FIT_FACTS).exists():
+            raise ValueError(f"model {name!r}: fit wrote {FIT_FACTS}, the harness's file; name "
+                             "yours otherwise")
+        facts = {"model": name, "class": entry.class_name, "settings": entry.settings,
+                 "horizon": horizon, "window_table": str(table), "seed": settings.seed,
+                 "n_train": len(train), "n_val": len(val), "fit_seconds": seconds}
+        write_json(facts, staged / FIT_FACTS)
+    return facts
+
+
+def fit_facts(workdir: Path, name: str, horizon: int) -> dict[str, Any]:
+    """The facts `fit_to_workdir` recorded, checked to be model `name`'s at `horizon`."""
+    path = Path(workdir) / FIT_FACTS
+    try:
+        facts = json.loads(path.read_text())
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{path}: no fit record ({e}); run stage fit_model@{name}-{horizon} "
+                         "first") from e
+    if not isinstance(facts, dict) or (facts.get("model"), facts.get("horizon")) != (name, horizon):
+        got = (facts.get("model"), facts.get("horizon")) if isinstance(facts, dict) else facts
+        raise ValueError(f"{path}: fitted for (model, horizon) {got}, not {(name, horizon)}")
+    return facts
+
+
+def score_rounds(name: str, model, test: WindowSet, truth: np.ndarray, workdir: Path,
+                 evaluation: EvaluateBaselineParams, kept: PredictionRounds) -> dict:
+    """`seeded_rounds` of best-of-K errors (round r: `predict` with seed + r), in the layout of
+    `baseline_runs.evaluate`; `kept` receives each round's checked predictions."""
+    t0 = time.perf_counter()
+
+    def score_round(round_seed: int):
+        pred = check_predictions(name, model.predict(test, evaluation.k, workdir, round_seed),
+                                 len(test), evaluation.k, test.n_future)
+        kept.add(round_seed, pred)
+        return window_errors(pred, truth)
+
+    scored = seeded_rounds(score_round, evaluation.rounds, evaluation.seed)
+    seconds = time.perf_counter() - t0
+    per_round = scored.pop("per_round")
+    return {**scored, "k": evaluation.k, "n_windows": len(test), "eval_seconds": seconds,
+            "eval_seconds_per_round": seconds / evaluation.rounds, "per_round": per_round}
+
+
+def predict_to_files(name: str, horizon: int, table: Path, workdir: Path, metrics: Path,
+                     predictions: Path, params: dict) -> dict:
+    """What stage `predict_model` does: model `name`, as fitted in `workdir`, scored on split
+    `evaluate_baseline.split` of `table` (K, rounds, seed, threads of `evaluate_baseline`;
+    `windows.n_past`), the metrics record written to `metrics` (and returned) and every round's
+    predictions to `predictions`."""
+    entry = registered(name, params)
+    evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
+    n_past = load_section(WindowParams, "windows", params).n_past
+    facts = fit_facts(workdir, name, horizon)
+    arrays = horizon_windows(table, n_past, horizon)
+    test = window_set(arrays, evaluation.split, with_future=False)
+    if len(test) == 0:
+        raise ValueError(f"{table}: no {evaluation.split} windows")
+    truth = arrays.future[arrays.split == evaluation.split]
+    model = load_model(entry)
+    limit_torch_threads(evaluation.threads)
+    print(f"predict_model {name} t_f = {horizon}: {len(test)} {evaluation.split} windows", flush=True)
+    kept = PredictionRounds(test.window_id)
+    scores = score_rounds(name, model, test, truth, Path(workdir), evaluation, kept)
+    record = {"model": name, "horizon": horizon, "split": evaluation.split, "seed": evaluation.seed,
+              **scores, "train_seconds": facts["fit_seconds"]}
+    kept.write(predictions, {
+        "model": name, "benchmark": long_term_benchmark(table), "unit": "px",
+        "split": evaluation.split, "k": evaluation.k, "horizon": horizon,
+        "window_table": str(table), "checkpoint_dir": str(workdir)})
+    write_json(record, metrics)
+    return record

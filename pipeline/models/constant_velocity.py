@@ -1,0 +1,35 @@
+"""Constant velocity, written to the contract of `pipeline.models`: the worked example of README
+"Your model here". Its registry line in params.yaml:
+
+    models:
+      constant_velocity: {class: ConstantVelocity, label: Constant velocity, colour: "#7f7f7f", settings: {}}
+
+The last observed velocity extrapolated, x_{t+s} = x_t + s (x_t - x_{t-1}), by the same function
+the baselines' constant velocity and the chain-bias measurement use, so its predictions are those
+of `evaluate_baseline --model constant_velocity`. Deterministic and with nothing to learn: `fit`
+keeps nothing, and the one path is returned k times (its best of k is that path).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pipeline.harness.baselines.constant_velocity import extrapolate
+from pipeline.models import WindowSet
+
+
+class ConstantVelocity:
+    def __init__(self, settings: Mapping[str, Any]) -> None:
+        if settings:
+            raise ValueError(f"constant velocity takes no settings, got {sorted(settings)}")
+
+    def fit(self, train: WindowSet, val: WindowSet, workdir: Path, seed: int) -> None:
+        """Nothing to learn: the workdir stays empty."""
+
+    def predict(self, test: WindowSet, k: int, workdir: Path, seed: int) -> np.ndarray:
+        path = extrapolate(test.past, test.n_future)  # (N, n_f, 2)
+        return np.repeat(path[:, None], k, axis=1)  # (N, k, n_f, 2)
