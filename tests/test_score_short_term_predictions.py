@@ -182,6 +182,7 @@ def test_ethucy_fold_by_hand_in_metres(project):
     assert zara["scene_masks"]["forbidden_classes"] == ["not_road"]
     assert zara["scene_masks"]["scenes_with_mask"] == ["zara1"]
     assert zara["scene_masks"]["windows_with_mask"] == 2
+    assert zara["collision_partners"] == "windows of another track starting at the same frame"
     got = zara["models"]["sgan"]
     assert (got["rounds"], got["seeds"], got["k"], got["t"], got["n_windows"]) == (2, [0, 1], 3, 2, 2)
     m, far = got["metrics"], math.sqrt(0.1 ** 2 + (SHIFT - 0.1) ** 2)  # round 1's best sample
@@ -285,3 +286,21 @@ def test_names_and_tables_agree_with_the_writers(tmp_path):
         assert stored_short_term.benchmark_name(table) \
             == runner.prediction_metadata(tmp_path, dataset, "sgan")["benchmark"]
     assert stored_scores.IND_BENCHMARK == ind_runner.IND_BENCHMARK
+
+
+def test_ethucy_collisions_pair_only_windows_that_start_together():
+    """Windows 0 (track 1) and 1 (track 2, 5 m away) start together; window 2, track 2 again one
+    step later, is 0.1 m from window 0 at frame 30. Any shared frame: 0 and 2 collide; one
+    sequence (ETH/UCY): window 2 has no partner, 0 and 1 stay apart."""
+    future = np.array([[[0.0, 0.0], [1.0, 0.0]], [[5.0, 0.0], [5.0, 0.0]],
+                       [[1.1, 0.0], [2.0, 0.0]]])
+    truth = stored_scores.WindowTruth(Path("t.parquet"), np.arange(3), future,
+                                      np.array([[20, 30], [20, 30], [30, 40]]),
+                                      np.array(["zara1"] * 3), np.array([1, 2, 2]), 2)
+    samples = future[:, None]  # K = 1: the truth itself
+    for same_start, hits, copresent in ((False, [1.0, 0.0, 1.0], [True, True, True]),
+                                        (True, [0.0, 0.0, 0.0], [True, True, False])):
+        inputs = stored_scores.SceneInputs(truth, np.ones(3), None, same_start)
+        got = stored_scores.collisions(samples, inputs, 0.2)
+        assert got.pred_share.tolist() == hits and got.truth.tolist() == [h > 0 for h in hits]
+        assert got.copresent.tolist() == copresent

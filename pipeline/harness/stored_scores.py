@@ -24,7 +24,11 @@ mean and (population) std over the rounds, and per scene:
   beside the ground truth's (`ground_truth.off_limits_share`); null where no window has a mask;
 - `collision_rate`: share of a window's K samples that come closer than `collision_threshold_m`
   metres to the same sample of another agent at a shared raw frame, beside the ground truth's,
-  with the share of windows that share any frame with another agent (`copresent_share`).
+  with the share of windows that share any frame with another agent (`copresent_share`). Where a
+  benchmark cuts a window at every frame (ETH/UCY: `Benchmark.same_start_collisions`), only windows
+  that start at the same frame are compared, one sequence as SGAN's loader groups its agents:
+  otherwise each neighbour would meet a window in up to 2 n_f - 1 overlapping windows, each with
+  its own independent samples, and the rate would grow with the overlap instead of the model.
 
 Predictions are compared with the window table by window id, never by position; a file whose ids
 are not in its table (or not in the benchmark's split), whose benchmark, unit or truth columns are
@@ -248,6 +252,7 @@ class Benchmark:
     scales_source: str = "the unit is metres"  # for the record
     masks: SceneMasks | None = None
     masks_absent: str | None = None
+    same_start_collisions: bool = False  # collisions only between windows starting together
     read_truth: WindowTruth | None = None  # cached
 
     def truth(self) -> WindowTruth:
@@ -271,7 +276,10 @@ class Benchmark:
         """What the record says about the benchmark (and, once read, its windows)."""
         out = {"benchmark": self.name, "window_table": Path(self.table).as_posix(),
                "unit": self.unit, "truth_columns": list(self.truth_columns), "split": self.split,
-               "metres_per_unit": self.scales_source}
+               "metres_per_unit": self.scales_source,
+               "collision_partners": ("windows of another track starting at the same frame"
+                                      if self.same_start_collisions else
+                                      "windows of another track sharing a raw frame")}
         if self.read_truth is not None:
             truth = self.read_truth
             out.update(n_windows=len(truth.window_ids), n_future=int(truth.future.shape[1]),
@@ -350,6 +358,7 @@ class SceneInputs:
     truth: WindowTruth
     metres_per_unit: np.ndarray  # (N,)
     masks: SceneMasks | None
+    same_start: bool = False  # collisions only between windows starting at the same frame
 
 
 def off_limits_share(positions: np.ndarray, inputs: SceneInputs) -> np.ndarray:
@@ -363,10 +372,15 @@ def off_limits_share(positions: np.ndarray, inputs: SceneInputs) -> np.ndarray:
 def collisions(samples: np.ndarray, inputs: SceneInputs, threshold_m: float
                ) -> scoring.Collisions:
     """`scoring.collisions` of samples (N, K, T, 2) in metres (each window scaled by its scene's
-    metres per unit), between windows of different tracks in one scene sharing a raw frame."""
+    metres per unit), between windows of different tracks in one scene sharing a raw frame; with
+    `inputs.same_start`, only between those whose first future frame (hence start) is the same."""
     to_m, truth = inputs.metres_per_unit, inputs.truth
+    groups = truth.scenes
+    if inputs.same_start:
+        groups = np.array([f"{scene}@{frame}" for scene, frame
+                           in zip(truth.scenes.tolist(), truth.frames[:, 0].tolist())])
     return scoring.collisions(samples * to_m[:, None, None, None],
-                              truth.future * to_m[:, None, None], truth.scenes, truth.frames,
+                              truth.future * to_m[:, None, None], groups, truth.frames,
                               threshold_m, agents=truth.tracks)
 
 
@@ -453,7 +467,8 @@ def score_file(path: Path, benchmark: Benchmark, params: ScorePredictionsParams
     if t != windows.future.shape[1]:
         raise IntermediateError(f"{path}: {t} predicted steps, but the windows of {truth.path} "
                                 f"have {windows.future.shape[1]} future steps")
-    inputs = SceneInputs(windows, benchmark.to_metres(windows.scenes, path), benchmark.masks)
+    inputs = SceneInputs(windows, benchmark.to_metres(windows.scenes, path), benchmark.masks,
+                         benchmark.same_start_collisions)
     rounds, nll_steps, hits = [], [], None
     for arrays in by_round.values():
         per_window, nll, hits = score_round(arrays, inputs, params)

@@ -16,7 +16,11 @@ files (stage `score_short_term_predictions`, `metrics/beyond/short_term.json`).
   the map at `resize` map pixels per pixel; a map pixel is not road where its not-road probability
   exceeds its road probability (the maps are area-resized: a boundary pixel holds both), and not
   road is the forbidden class. A position the inverse homography sends to infinity (the horizon)
-  counts as outside the map.
+  counts as outside the map. SGAN's loader cuts a window at every frame, so each neighbour shares
+  frames with a window in up to 2 n_f - 1 overlapping windows (zara1: 81 partner windows of 7
+  other pedestrians on average): collisions are counted only between windows that start at the
+  same frame, one sequence (`Benchmark.same_start_collisions`). TrajNet SDD's windows meet each
+  neighbour once and keep the long-term rule (any shared raw frame).
 
 Window ids are those of the dataset's table; an id of another split is "not in" the benchmark.
 """
@@ -87,7 +91,7 @@ def road_masks(maps_dir: Path) -> SceneMasks:
 def ethucy_fold(windows: Path, fold: str, n_past: int, masks: SceneMasks) -> Benchmark:
     table = table_path(windows, fold)
     return Benchmark(benchmark_name(table), table, "m", n_past, tuple(METRE_COLUMNS), SPLIT,
-                     masks=masks)
+                     masks=masks, same_start_collisions=True)
 
 
 def short_term_benchmarks(windows: Path, predictions: Path, datasets: Sequence[str], n_past: int,
