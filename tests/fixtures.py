@@ -2,7 +2,8 @@
 
 `write_mirror` lays out a mini mirror like `../shared/data` (SDD annotations, a release archive
 with pandas pickles) whose windows are known by construction, plus its manifests. `write_maps_folder`
-writes a scene-map folder (`maps.npz` + `index.json`) as the semantic-map stages do.
+writes a scene-map folder (`maps.npz` + `index.json`) as the semantic-map stages do;
+`write_walker_scenes` the inputs of a Y-net training stage (a window table, scene images, maps).
 """
 
 from __future__ import annotations
@@ -11,6 +12,9 @@ import hashlib
 import json
 from pathlib import Path
 
+from collections.abc import Callable
+
+import cv2
 import numpy as np
 import pandas as pd
 
@@ -108,3 +112,33 @@ def write_mirror(mirror: Path, manifests: Path) -> dict:
         write_manifest(mirror / source, manifests / f"{source}.sha256")
     return {"release": {"train": 1, "test": 2}, "raw_tf30": {"train": 1, "test": 2},
             "raw_tf5": {"train": 3 + 2, "test": 7}}
+
+
+WALKER_SCENES = [("gates_0", "train", 6), ("gates_1", "val", 2), ("gates_2", "test", 3)]
+"""(scene_id, split, walkers) of `write_walker_scenes`: one scene per split."""
+
+
+def write_walker_scenes(root: Path, table: Path, image_hw: tuple[int, int],
+                        walkers: Callable[..., pd.DataFrame]) -> None:
+    """What a Y-net training stage reads, under `root`: the window table `table` of the windows
+    `walkers(scene_id, split, n, first_id, rng)` gives per scene of `WALKER_SCENES`, each scene's
+    random `reference.jpg` (`sdd/annotations/<scene>/video<k>/`, `image_hw` pixels) and random class
+    maps at a quarter of it (`semantic_maps/`). One generator (seed 1) draws everything, in that
+    order per scene."""
+    from pipeline.data.semantic_maps import quantise
+    from pipeline.data.window_table import conform
+    from ynet.segmentation import CLASS_NAMES
+
+    rng = np.random.default_rng(1)
+    tables, maps = [], {}
+    for scene_id, split, n in WALKER_SCENES:
+        tables.append(walkers(scene_id, split, n, 100 * len(tables), rng))
+        scene, video = scene_id.rsplit("_", 1)
+        folder = root / "sdd" / "annotations" / scene / f"video{video}"
+        folder.mkdir(parents=True)
+        assert cv2.imwrite(str(folder / "reference.jpg"),
+                           rng.integers(0, 255, (*image_hw, 3), dtype=np.uint8))
+        probs = rng.dirichlet(np.ones(6), size=(image_hw[0] // 4, image_hw[1] // 4))
+        maps[scene_id] = quantise(probs.transpose(2, 0, 1).astype(np.float32))
+    conform(pd.concat(tables)).to_parquet(table)
+    write_maps_folder(root / "semantic_maps", maps, CLASS_NAMES)

@@ -6,19 +6,16 @@ does not train, which says why (in its metrics and in an empty predictions file)
 import json
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pandas as pd
 import yaml
 
-from pipeline.data.semantic_maps import quantise
-from pipeline.data.window_table import conform, to_arrays
+from pipeline.data.window_table import to_arrays
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
 from pipeline.stages import evaluate_ynet_horizon, train_ynet_horizon
-from tests.fixtures import write_maps_folder
-from ynet.segmentation import CLASS_NAMES
+from tests.fixtures import write_walker_scenes
 
 REPO = Path(__file__).resolve().parents[1]
 IMAGE_HW = (512, 640)  # original pixels; the cpu profile's resize 0.0625 gives 32 x 40 maps
@@ -40,19 +37,7 @@ def walkers(scene_id: str, split: str, n: int, first_id: int, rng) -> pd.DataFra
 
 
 def write_fixture(root: Path) -> None:
-    rng = np.random.default_rng(1)
-    tables, maps = [], {}
-    for scene_id, split, n in [("gates_0", "train", 6), ("gates_1", "val", 2), ("gates_2", "test", 3)]:
-        tables.append(walkers(scene_id, split, n, 100 * len(tables), rng))
-        scene, video = scene_id.rsplit("_", 1)
-        folder = root / "sdd" / "annotations" / scene / f"video{video}"
-        folder.mkdir(parents=True)
-        assert cv2.imwrite(str(folder / "reference.jpg"),
-                           rng.integers(0, 255, (*IMAGE_HW, 3), dtype=np.uint8))
-        probs = rng.dirichlet(np.ones(6), size=(IMAGE_HW[0] // 4, IMAGE_HW[1] // 4))
-        maps[scene_id] = quantise(probs.transpose(2, 0, 1).astype(np.float32))
-    conform(pd.concat(tables)).to_parquet(root / f"tf{HORIZON}.parquet")
-    write_maps_folder(root / "semantic_maps", maps, CLASS_NAMES)
+    write_walker_scenes(root, root / f"tf{HORIZON}.parquet", IMAGE_HW, walkers)
 
 
 def stage_args(horizon: int, *outputs: str) -> list[str]:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pandas as pd
 import pytest
@@ -18,16 +17,13 @@ import torch
 import yaml
 
 from pipeline.config import ParamsError, YnetSeedsParams, from_dict, load_profile, ynet_seed_slots
-from pipeline.data.semantic_maps import quantise
-from pipeline.data.window_table import conform
 from pipeline.harness import seed_spread
 from pipeline.io import IntermediateError
 from pipeline.runners import ynet_training
 from pipeline.stages import (baseline_seed_spread, evaluate_ynet, evaluate_ynet_seed, train_ynet,
                              train_ynet_seed)
-from tests.fixtures import write_maps_folder
+from tests.fixtures import write_walker_scenes
 from tests.test_baseline_seeds import three_seeds, write_records
-from ynet.segmentation import CLASS_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
 IMAGE_HW = (512, 640)  # original pixels; the cpu profile's resize 0.0625 gives 32 x 40 maps
@@ -51,19 +47,7 @@ def walkers(scene_id: str, split: str, n: int, first_id: int, rng) -> pd.DataFra
 def write_fixture(root: Path, seeds: list[int]) -> dict:
     """Windows (6 train, 2 val, 3 test), scene images and maps; params.yaml's cpu profile with one
     epoch and one thread, Y-net's extra seeds `seeds` (slots 0, 1, 2). Returns the params."""
-    rng = np.random.default_rng(1)
-    tables, maps = [], {}
-    for scene_id, split, n in [("gates_0", "train", 6), ("gates_1", "val", 2), ("gates_2", "test", 3)]:
-        tables.append(walkers(scene_id, split, n, 100 * len(tables), rng))
-        scene, video = scene_id.rsplit("_", 1)
-        folder = root / "sdd" / "annotations" / scene / f"video{video}"
-        folder.mkdir(parents=True)
-        assert cv2.imwrite(str(folder / "reference.jpg"),
-                           rng.integers(0, 255, (*IMAGE_HW, 3), dtype=np.uint8))
-        probs = rng.dirichlet(np.ones(6), size=(IMAGE_HW[0] // 4, IMAGE_HW[1] // 4))
-        maps[scene_id] = quantise(probs.transpose(2, 0, 1).astype(np.float32))
-    conform(pd.concat(tables)).to_parquet(root / "release_tf30.parquet")
-    write_maps_folder(root / "semantic_maps", maps, CLASS_NAMES)
+    write_walker_scenes(root, root / "release_tf30.parquet", IMAGE_HW, walkers)
     params = yaml.safe_load((REPO / "params.yaml").read_text())
     params["profile"] = "cpu"
     params["runtime"] = {"device": "cpu", "max_minutes": 0}

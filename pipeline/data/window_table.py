@@ -19,6 +19,7 @@ A window table is long-format parquet, one row per (window, step), sorted by win
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -85,3 +86,16 @@ def to_arrays(table: pd.DataFrame, n_past: int) -> WindowArrays:
         first_frame=first["frame"].to_numpy(),
         split=first["split"].to_numpy(str),
     )
+
+
+def load_windows(table_path: Path, n_past: int, horizon: int) -> WindowArrays:
+    """The windows of the horizon table at `table_path` as arrays (every split); fails unless
+    they are n_past + horizon steps (1 FPS)."""
+    table = pd.read_parquet(table_path)
+    horizons = sorted(table["t_f"].unique().tolist())
+    if horizons != [horizon]:
+        raise ValueError(f"{table_path}: windows of horizon(s) {horizons}, expected {horizon}")
+    arrays = to_arrays(table, n_past)
+    if arrays.future.shape[1] != horizon:
+        raise ValueError(f"{table_path}: {arrays.future.shape[1]} future steps for t_f = {horizon} s")
+    return arrays

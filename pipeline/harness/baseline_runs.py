@@ -4,7 +4,8 @@
 min-over-K ADE on `val`, never `test`) and `train_record` is what the stages `train_baseline` and
 `train_baseline_seed` do with it (one training seed each), `evaluate` scores any baseline with
 the shared metric over seeded rounds (stages `evaluate_baseline`, `evaluate_rpecnet`,
-`evaluate_constant_velocity`, `evaluate_pecnet_ka`, `evaluate_ind`), keeping every round's
+`evaluate_pecnet_ka`, `evaluate_ind`; constant velocity on the horizon tables goes through
+`predict_model`, `pipeline.harness.model_runs`), keeping every round's
 predictions where asked, `training_facts` reads what a checkpoint folder records about its
 training. `score_to_file` is what the long-term baseline stages do: the metrics file and the file of
 every test prediction (`pipeline.harness.predictions`), or only the metrics for the extra training
@@ -26,12 +27,11 @@ import torch
 
 from pipeline.config import (EvaluateBaselineParams, RuntimeParams, TrainBaselineParams, WindowParams,
                              load_profile, load_section)
-from pipeline.data.window_table import WindowArrays
+from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import baselines
-from pipeline.harness.baselines.common import (fit_result_from, load_checkpoint, load_windows,
-                                               select_split)
+from pipeline.harness.baselines.common import fit_result_from, load_checkpoint, select_split
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import write_json
@@ -168,7 +168,7 @@ def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path | No
 
 def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, metrics: Path,
                   predictions: Path | None, params: dict, extra: Mapping[str, Any] | None = None) -> None:
-    """What the stages `evaluate_baseline`, `evaluate_rpecnet` and `evaluate_constant_velocity` do:
+    """What the stages `evaluate_baseline`, `evaluate_rpecnet` and their extra-seed twins do:
     `score_split` under `evaluate_baseline` (its threads), `windows.n_past` and `runtime.device` of
     `params` (params.yaml as read), written to `metrics` (with `extra`'s keys after the rest), and
     every round's test predictions written to `predictions` (no weights: these models give none;

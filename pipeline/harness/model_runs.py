@@ -19,11 +19,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from pipeline.config import (EvaluateBaselineParams, ParamsError, TrainBaselineParams, WindowParams,
                              load_section)
-from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import atomic_dir, write_json
@@ -38,18 +37,6 @@ def registered(name: str, params: dict) -> ModelEntry:
     if name not in models:
         raise ParamsError(f"params.yaml:models: no model {name!r}; registered: {sorted(models)}")
     return models[name]
-
-
-def horizon_windows(table: Path, n_past: int, horizon: int) -> WindowArrays:
-    """The windows of a horizon table as arrays; fails unless they are n_past + horizon steps."""
-    frame = pd.read_parquet(table)
-    horizons = sorted(frame["t_f"].unique().tolist())
-    if horizons != [horizon]:
-        raise ValueError(f"{table}: windows of horizon(s) {horizons}, expected {horizon}")
-    arrays = to_arrays(frame, n_past)
-    if arrays.future.shape[1] != horizon:
-        raise ValueError(f"{table}: {arrays.future.shape[1]} future steps for t_f = {horizon} s")
-    return arrays
 
 
 def window_set(arrays: WindowArrays, split: str, with_future: bool) -> WindowSet:
@@ -76,7 +63,7 @@ def fit_to_workdir(name: str, horizon: int, table: Path, workdir: Path, params: 
     entry = registered(name, params)
     settings = load_section(TrainBaselineParams, "train_baseline", params)
     n_past = load_section(WindowParams, "windows", params).n_past
-    arrays = horizon_windows(table, n_past, horizon)
+    arrays = load_windows(table, n_past, horizon)
     train = window_set(arrays, "train", with_future=True)
     val = window_set(arrays, "val", with_future=True)
     if len(train) == 0:
@@ -141,7 +128,7 @@ def predict_to_files(name: str, horizon: int, table: Path, workdir: Path, metric
     evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
     n_past = load_section(WindowParams, "windows", params).n_past
     facts = fit_facts(workdir, name, horizon)
-    arrays = horizon_windows(table, n_past, horizon)
+    arrays = load_windows(table, n_past, horizon)
     test = window_set(arrays, evaluation.split, with_future=False)
     if len(test) == 0:
         raise ValueError(f"{table}: no {evaluation.split} windows")

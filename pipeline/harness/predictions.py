@@ -359,6 +359,9 @@ def read_prediction_rounds(path: Path) -> tuple[dict[int, PredictionArrays], dic
     return by_round, metadata
 
 
+IND_BENCHMARK = "ind_long_term"  # inD's benchmark name in a predictions file's metadata
+
+
 def long_term_benchmark(table: Path) -> str:
     """The benchmark a long-term SDD window table defines, named after the table's file:
     `sdd_long_term_tf<H>` for the horizon tables (`data/horizon_windows/tf<H>.parquet`),

@@ -54,8 +54,8 @@ from pipeline.config import ScorePredictionsParams
 from pipeline.data.labels import read_index, read_label_map
 from pipeline.data.window_table import conform
 from pipeline.harness import scoring
-from pipeline.harness.predictions import (NOT_RUN, PredictionArrays, long_term_benchmark,
-                                          read_prediction_rounds)
+from pipeline.harness.predictions import (IND_BENCHMARK, NOT_RUN, PredictionArrays,
+                                          long_term_benchmark, read_prediction_rounds)
 from pipeline.io import IntermediateError, index_value, read_json_index
 
 UNIT = "px"  # the long-term SDD benchmark's unit: original image pixels
@@ -64,7 +64,6 @@ PATH_METRICS = ("ade", "fde", "ade_joint", "fde_joint", "ade_best_endpoint", "mi
 SCENE_METRICS = ("off_limits_share", "collision_rate")  # from the paths in their scenes
 METRICS = PATH_METRICS + SCENE_METRICS  # every model metric, in the order a record lists them
 TRUTH_METRICS = ("off_limits_share", "collision_rate", "copresent_share")  # of the ground truth
-IND_BENCHMARK = "ind_long_term"  # inD's benchmark name (pipeline.runners.ind writes it)
 
 
 # ---------------------------------------------------------------------------------------------

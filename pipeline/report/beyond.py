@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -240,18 +240,8 @@ def beyond_section(store: MetricsStore, t_f: int, models: Sequence[tuple[str, st
 # Short-term benchmarks and inD (`score_benchmarks` layout: {"benchmarks": {name: {"unit",
 # "scene_masks", "models": {model: record}}}})
 
-BENCHMARK_COLUMNS = (  # the long-term columns, units per row (decimals: `cell_decimals`)
-    Metric("ade", "min-ADE", "metrics", 2),
-    Metric("fde", "min-FDE", "metrics", 2),
-    Metric("fde_joint", "joint FDE", "metrics", 2),
-    Metric("ade_best_endpoint", "best-endpoint ADE", "metrics", 2),
-    Metric("miss_rate", "miss rate", "metrics", 3),
-    Metric("kde_nll", "KDE NLL", "metrics", 2),
-    Metric("off_limits_share", "off-limits share", "metrics", 3),
-    Metric("off_limits_share", "ground truth's off-limits share", "ground_truth", 3),
-    Metric("collision_rate", "collision rate", "metrics", 3),
-    Metric("collision_rate", "ground truth's collision rate", "ground_truth", 3),
-)
+# The long-term columns without their unit: each row states its own (decimals: `cell_decimals`).
+BENCHMARK_COLUMNS = tuple(replace(c, label=c.label.removesuffix(" (px)")) for c in COLUMNS)
 DISTANCES = frozenset({"ade", "fde", "fde_joint", "ade_best_endpoint"})  # in the row's unit
 BENCHMARK_LABELS = {"sdd": "SDD (TrajNet)", "eth": "ETH", "hotel": "Hotel", "univ": "Univ",
                     "zara1": "Zara1", "zara2": "Zara2", "ind": "inD"}

@@ -54,7 +54,7 @@ from pipeline.device import CPU
 from pipeline.harness import baseline_runs, baselines
 from pipeline.harness.baselines.common import select_split
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet
-from pipeline.harness.predictions import PredictionRounds, write_no_predictions
+from pipeline.harness.predictions import IND_BENCHMARK, PredictionRounds, write_no_predictions
 from pipeline.io import (IntermediateError, atomic_dir, check_array, index_value, read_json_index,
                          read_npz, write_npz)
 from pipeline.preemption import NEVER, Preemption
@@ -72,7 +72,6 @@ from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 MAPS = "segmentation/maps.npz"  # in the checkpoint folder: the maps Y-net trained on, for scoring
 BASELINE_MODELS = (*TRAINED_BASELINES, "rpecnet", "constant_velocity")
 IND_MODELS = ("ynet", *BASELINE_MODELS)  # one stored predictions file each
-IND_BENCHMARK = "ind_long_term"  # the benchmark name in the stored predictions' metadata
 
 
 @dataclass(frozen=True)

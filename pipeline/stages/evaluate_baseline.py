@@ -6,7 +6,7 @@ chosen split in `rounds` seeded rounds, and writes best-of-K ADE / FDE, independ
 mean and spread over rounds, with the training facts the checkpoint records
 (`pipeline.harness.baseline_runs.score_split`), and every round's predictions in original pixels
 (`pipeline.harness.predictions`; one folder per window table: `tf<H>/` for the horizon tables).
-`evaluate_rpecnet` and `evaluate_constant_velocity` are this stage for one model. Params:
+`evaluate_rpecnet` is this stage for one model (constant velocity runs through `predict_model`). Params:
 `evaluate_baseline`, `windows.n_past`, `runtime.device`.
 
     python -m pipeline.stages.evaluate_baseline --model pecnet --horizon 30 \

@@ -19,10 +19,11 @@ import torch
 
 from pipeline.config import (EvalParams, EvaluateBaselineParams, RuntimeParams, WindowParams,
                              load_profile, load_section, read_params)
+from pipeline.data.window_table import load_windows
 from pipeline.device import describe, select_device
 from pipeline.harness import baselines
 from pipeline.harness.baseline_runs import ka_rows
-from pipeline.harness.baselines.common import load_windows, select_split
+from pipeline.harness.baselines.common import select_split
 from pipeline.io import write_json
 
 

@@ -39,12 +39,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 import torch
 from torch import nn
 from tqdm import tqdm
 
-from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline.data.window_table import WindowArrays
 from pipeline import checkpoints
 from pipeline.device import CPU, restore_rng_states, rng_states, to_device
 from pipeline.device import generator as seeded_generator
@@ -118,18 +117,6 @@ def subset(arrays: WindowArrays, index: np.ndarray) -> WindowArrays:
     """The windows `index` of `arrays`."""
     return WindowArrays(**{f.name: getattr(arrays, f.name)[index]
                            for f in dataclasses.fields(WindowArrays)})
-
-
-def load_windows(table_path: Path, n_past: int, horizon: int) -> WindowArrays:
-    """The table's windows as arrays; fails unless they are n_past + horizon steps (1 FPS)."""
-    table = pd.read_parquet(table_path)
-    horizons = sorted(table["t_f"].unique().tolist())
-    if horizons != [horizon]:
-        raise ValueError(f"{table_path}: windows of horizon(s) {horizons}, expected {horizon}")
-    arrays = to_arrays(table, n_past)
-    if arrays.future.shape[1] != horizon:
-        raise ValueError(f"{table_path}: {arrays.future.shape[1]} future steps for t_f = {horizon} s")
-    return arrays
 
 
 def select_split(arrays: WindowArrays, name: str) -> WindowArrays:
