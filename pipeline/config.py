@@ -756,6 +756,22 @@ class BaselineSeedsParams:
             raise ValueError(f"extra {wrong}")
 
 
+@dataclass(frozen=True)
+class EpochSelectionStudyParams:
+    """Section `epoch_selection_study`: the split-half study of the stage `epoch_selection`, which
+    compares the epoch selection rules on validation windows alone
+    (`pipeline.harness.epoch_selection`)."""
+
+    n_splits: int = 200
+    """Random halvings of each run's validation windows (each half chooses once)."""
+    seed: int = 0
+    """Seed of the halvings."""
+
+    def __post_init__(self):
+        if self.n_splits < 1:
+            raise ValueError("n_splits must be >= 1")
+
+
 @dataclass
 class EvaluateBaselineParams:
     k: int
@@ -768,6 +784,10 @@ class EvaluateBaselineParams:
     """Seed of the first round."""
     threads: int
     """torch CPU threads."""
+    epoch_selection: str = "raw"
+    """Which kept epoch of a trained baseline is scored: `raw` (lowest validation ADE) or a smoothed
+    rule of `pipeline.harness.epoch_selection` (chosen by the stage `epoch_selection`'s study;
+    checked there, where the rules are defined)."""
 
     def __post_init__(self):
         if self.k < 1 or self.rounds < 1 or self.threads < 1:

@@ -23,7 +23,8 @@ from tests.test_baselines import N_PAST, TINY_PECNET, TINY_SGAN, straight_tracks
 
 torch.set_num_threads(1)
 MAIN_TRAIN_KEYS = {"model", "horizon", "profile", "seed", "threads", "device", "wall_seconds", "n_train",
-                   "n_val", "epochs", "best_epoch", "best_val_ade", "train_seconds", "seconds_per_epoch"}
+                   "n_val", "epochs", "best_epoch", "best_val_ade", "selected_epochs", "train_seconds",
+                   "seconds_per_epoch"}
 
 
 def weights(checkpoint_dir: Path) -> dict[str, torch.Tensor]:

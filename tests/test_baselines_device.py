@@ -235,8 +235,10 @@ def as_format_2(saved: dict) -> dict:
 
 def test_older_layouts_upgraded_and_other_device_checkpoints_resume(tmp_path, monkeypatch, capsys):
     """A format-1 / format-2 last.pt (before the shared scheme) is refused as it stands and, once
-    `tools/upgrade_checkpoints` rewrote it, resumes exactly; one whose generator state was written
-    on another kind of device carries the weights over with a re-seeded generator."""
+    `tools/upgrade_checkpoints` rewrote it, is a run of other selection rules (it predates the
+    per-window validation record): training starts afresh and ends as a straight run. One whose
+    generator state was written on another kind of device carries the weights over with a
+    re-seeded generator."""
     fit = CountingFit(Pecnet, dataclasses.replace(TINY_PECNET, epochs=3), monkeypatch)
     straight = fit(tmp_path / "straight")
     two = CountingFit(Pecnet, dataclasses.replace(TINY_PECNET, epochs=2), monkeypatch)
@@ -251,12 +253,16 @@ def test_older_layouts_upgraded_and_other_device_checkpoints_resume(tmp_path, mo
         if folder != "other_device":
             assert upgrade_checkpoints.upgrade(last)
             upgraded = checkpoints.load(last)
-            assert upgraded["identity"] == original["identity"] and upgraded["epoch"] == original["epoch"]
+            older_identity = {k: v for k, v in original["identity"].items() if k != "selection_rules"}
+            assert upgraded["identity"] == older_identity and upgraded["epoch"] == original["epoch"]
             assert not upgrade_checkpoints.upgrade(last)  # already in the scheme: left alone
+        capsys.readouterr()
         resumed = fit(tmp_path / folder)
-        assert fit.steps == two.steps // 2  # one more epoch, not a fresh start
         if folder != "other_device":
+            assert fit.steps == 3 * (two.steps // 2)  # afresh: the old run has no per-window curves
+            assert "other selection_rules; starting afresh" in capsys.readouterr().out
             assert_same_run(straight, resumed)
         else:
+            assert fit.steps == two.steps // 2  # one more epoch, not a fresh start
             assert resumed.fit_result.history[:2] == straight.fit_result.history[:2]
             assert len(resumed.fit_result.history) == 3 and np.isfinite(resumed.fit_result.history[2]["val_ade"])

@@ -123,7 +123,8 @@ def baseline_argv(model: str):
                         "--checkpoint-dir", f"{run}/ck", "--metrics", f"{run}/out/train.json"]
 
 
-BASELINE_OUTPUTS = {"ck/last.pt": "torch", "ck/best.pt": "bytes", "out/train.json": "json"}
+BASELINE_OUTPUTS = {"ck/last.pt": "torch", "ck/best.pt": "bytes", "ck/best_mean3.pt": "bytes",
+                    "ck/best_mean5.pt": "bytes", "ck/best_mean7.pt": "bytes", "out/train.json": "json"}
 
 STAGES = {
     "segmentation": Stage(

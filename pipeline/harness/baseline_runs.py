@@ -1,7 +1,8 @@
 """Training and scoring one baseline at one horizon: what the baseline stages share.
 
-`train` fits S-GAN or PECNet on a window table's `train` split (the epoch with the lowest
-min-over-K ADE on `val`, never `test`) and `train_record` is what the stages `train_baseline` and
+`train` fits S-GAN or PECNet on a window table's `train` split (keeping, for every rule of
+`pipeline.harness.epoch_selection`, the epoch it selects on the min-over-K ADE on `val`, never
+`test`; `evaluate_baseline.epoch_selection` says which is scored) and `train_record` is what the stages `train_baseline` and
 `train_baseline_seed` do with it (one training seed each), `evaluate` scores any baseline with
 the shared metric over seeded rounds (stages `evaluate_baseline`, `evaluate_rpecnet`,
 `evaluate_pecnet_ka`, `evaluate_ind`; constant velocity on the horizon tables goes through
@@ -30,8 +31,8 @@ from pipeline.config import (EvaluateBaselineParams, RuntimeParams, TrainBaselin
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, describe, select_device
 from pipeline.device import generator as seeded_generator
-from pipeline.harness import baselines
-from pipeline.harness.baselines.common import fit_result_from, load_checkpoint, select_split
+from pipeline.harness import baselines, epoch_selection
+from pipeline.harness.baselines.common import best_path, fit_result_from, load_checkpoint, select_split
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import write_json
@@ -69,7 +70,7 @@ def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: 
     return {
         "n_train": len(train_set), "n_val": len(val_set), "epochs": result.epochs,
         "best_epoch": result.best_epoch, "best_val_ade": result.best_val_ade,
-        "train_seconds": result.train_seconds,
+        "selected_epochs": result.selected, "train_seconds": result.train_seconds,
         "seconds_per_epoch": result.train_seconds / max(result.epochs, 1),
     }
 
@@ -104,9 +105,28 @@ def validation_curve(checkpoint_dir: Path) -> list[float]:
     return [float(epoch["val_ade"]) for epoch in fit_result_from(checkpoint_dir).history]
 
 
+def epoch_selection_study(runs: list[tuple[str, int, int, Path]], n_splits: int, seed: int) -> dict:
+    """The split-half study of every trained run (model, horizon, training seed, checkpoint folder):
+    per run, each rule's held-out validation ADE (`epoch_selection.split_half_study`) and the epoch
+    it keeps on the whole validation set; pooled, each rule against `raw`
+    (`epoch_selection.summarise`, whose `recommended` rule is the one to score with)."""
+    records = []
+    for model, horizon, train_seed, folder in runs:
+        result = fit_result_from(folder)
+        if not result.history or "val_window_ade" not in result.history[0]:
+            raise ValueError(f"{folder}/last.pt: no per-window validation errors (trained before they "
+                             "were recorded): re-run its training stage")
+        curves = result.window_curves()  # (E, N)
+        study = epoch_selection.split_half_study(curves, n_splits, seed)
+        records.append({"model": model, "horizon": horizon, "seed": train_seed, **study,
+                        "kept_epochs": dict(result.selected)})
+    return {"rules": dict(epoch_selection.RULES), "n_splits": n_splits, "seed": seed,
+            "summary": epoch_selection.summarise(records), "runs": records}
+
+
 def training_seed(checkpoint_dir: Path) -> int:
     """The seed the model kept in `checkpoint_dir` was trained with (its `best.pt` records it)."""
-    return int(load_checkpoint(Path(checkpoint_dir) / "best.pt")["meta"]["seed"])
+    return int(load_checkpoint(best_path(checkpoint_dir))["meta"]["seed"])
 
 
 def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device: torch.device = CPU,
@@ -129,15 +149,17 @@ def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device
             "eval_seconds_per_round": seconds / rounds, "per_round": per_round}
 
 
-def training_facts(model: str, checkpoint_dir: Path | None) -> dict:
-    """What the checkpoint records about its training (nothing for constant velocity)."""
+def training_facts(model: str, checkpoint_dir: Path | None, selection: str = "raw") -> dict:
+    """What the checkpoint records about its training (nothing for constant velocity): `best_epoch`
+    and `best_val_ade` are those of the epoch selection rule `selection` scored (its validation
+    ADE unsmoothed), `lowest_val_epoch` the epoch `raw` keeps."""
     if checkpoint_dir is None:
         return {"train_seconds": 0.0}
     result = fit_result_from(checkpoint_dir)
-    meta = load_checkpoint(Path(checkpoint_dir) / "best.pt")["meta"]
+    kept = load_checkpoint(best_path(checkpoint_dir, selection))
     return {"train_seconds": result.train_seconds, "trained_epochs": result.epochs,
-            "best_epoch": result.best_epoch, "best_val_ade": result.best_val_ade,
-            "trained_horizon": meta["n_future"]}
+            "epoch_selection": selection, "best_epoch": kept["epoch"], "best_val_ade": kept["val_ade"],
+            "lowest_val_epoch": result.best_epoch, "trained_horizon": kept["meta"]["n_future"]}
 
 
 def ka_rows(model, arrays, k_as: list[int], k_per_ka: int, rounds: int, seed: int,
@@ -156,14 +178,14 @@ def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path | No
                 ) -> tuple[dict, PredictionRounds]:
     """The metrics record of one baseline on split `params.split` of a window table (the layout of
     `metrics/baselines/<model>_tf<H>.json`) and every round's predictions, in original pixels."""
-    fitted = baselines.get(model).load(checkpoint_dir, device)
+    fitted = baselines.get(model).load(checkpoint_dir, device, params.epoch_selection)
     arrays = select_split(load_windows(table, n_past, horizon), params.split)
     if len(arrays) == 0:
         raise ValueError(f"{table}: no {params.split} windows")
     kept = PredictionRounds(arrays.window_id)
     scores = evaluate(fitted, arrays, params.k, params.rounds, params.seed, device, kept)
     return ({"model": model, "horizon": horizon, "split": params.split, "seed": params.seed,
-             **scores, **training_facts(model, checkpoint_dir)}, kept)
+             **scores, **training_facts(model, checkpoint_dir, params.epoch_selection)}, kept)
 
 
 def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, metrics: Path,
@@ -174,6 +196,7 @@ def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | 
     every round's test predictions written to `predictions` (no weights: these models give none;
     None: not kept, as for the extra training seeds)."""
     evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
+    epoch_selection.half_width(evaluation.epoch_selection)  # an unknown rule fails before any work
     n_past = load_section(WindowParams, "windows", params).n_past
     torch.set_num_threads(evaluation.threads)
     device = select_device(load_section(RuntimeParams, "runtime", params).device)

@@ -43,7 +43,7 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(runtime.device)
     print(f"evaluate_pecnet_ka: {describe(device)}", flush=True)
 
-    model = baselines.get("pecnet").load(args.checkpoint_dir, device)
+    model = baselines.get("pecnet").load(args.checkpoint_dir, device, params.epoch_selection)
     arrays = select_split(load_windows(args.table, n_past, args.horizon), params.split)
     if len(arrays) == 0:
         raise ValueError(f"{args.table}: no {params.split} windows")

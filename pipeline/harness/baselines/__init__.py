@@ -5,7 +5,8 @@ Every baseline class has
 - `fit(train, val, config, checkpoint_dir, seed, device=cpu, preemption=NEVER) -> model`
   (trainable ones): trains on `device`, keeps the epoch that is best on `val`, checkpoints every
   epoch (and mid-epoch when `preemption` stops it) and resumes from `checkpoint_dir`;
-- `load(checkpoint_dir, device=cpu) -> model`: the kept weights of a finished `fit`, on `device`;
+- `load(checkpoint_dir, device=cpu, selection="raw") -> model`: the weights a finished `fit` kept
+  under epoch selection rule `selection` (`pipeline.harness.epoch_selection`), on `device`;
 - `model.predict(arrays, k, generator) -> (N, k, n_f, 2)` sampled futures in original pixels
   (random draws on `generator`'s device: `pipeline.device.generator(device, seed)`).
 

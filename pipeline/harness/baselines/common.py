@@ -12,8 +12,11 @@ Checkpoints (one directory per trained model):
   SIGINT, or the `runtime.max_minutes` budget: see `pipeline.preemption`); then its position holds
   where that epoch stands (see `run_training`), and the next call continues at exactly that batch.
 - `best.pt`: the module state_dicts of the epoch with the lowest validation error, the config and
-  what the model needs to predict (n_past, n_future). What evaluation loads.
-Both are written to a temporary file and renamed, so an interruption never leaves a torn file, and
+  what the model needs to predict (n_past, n_future). What evaluation loads by default.
+- `best_<rule>.pt`, one per smoothed selection rule of `pipeline.harness.epoch_selection`
+  (`mean3`, ...): the same for the epoch that rule keeps; `best_path` names them, and
+  `evaluate_baseline.epoch_selection` says which one evaluation loads.
+All are written to a temporary file and renamed, so an interruption never leaves a torn file, and
 both hold only tensors (module weights always as CPU tensors) and plain Python values (loaded with
 `weights_only=True` and a `map_location`), so a checkpoint written on a GPU loads on a CPU.
 
@@ -45,6 +48,7 @@ from tqdm import tqdm
 
 from pipeline.data.window_table import WindowArrays
 from pipeline import checkpoints
+from pipeline.harness import epoch_selection
 from pipeline.device import CPU, restore_rng_states, rng_states, to_device
 from pipeline.device import generator as seeded_generator
 from pipeline.io import save_torch
@@ -161,6 +165,12 @@ def as_input(values: np.ndarray, device: torch.device, dtype: torch.dtype | None
     return to_device(torch.as_tensor(values, dtype=dtype, device=CPU), device)
 
 
+def best_path(checkpoint_dir: Path, rule: str = "raw") -> Path:
+    """The kept weights of selection rule `rule` in a checkpoint folder (`raw`: `best.pt`)."""
+    epoch_selection.half_width(rule)  # a clear error for an unknown rule
+    return Path(checkpoint_dir) / (BEST if rule == "raw" else f"best_{rule}.pt")
+
+
 def load_checkpoint(path: Path, map_location: torch.device | str = "cpu") -> dict[str, Any]:
     """A `best.pt` written by `run_training` (tensors and plain values only), its tensors on
     `map_location`."""
@@ -178,7 +188,12 @@ class FitResult:
     best_val_ade: float  # its validation error (min-over-K ADE, pixels)
     epochs: int  # epochs trained in total (over all resumed runs)
     train_seconds: float  # wall time of training, summed over resumed runs
-    history: list[dict[str, float]] = field(default_factory=list)  # one entry per epoch
+    history: list[dict[str, Any]] = field(default_factory=list)  # one entry per epoch
+    selected: dict[str, int] = field(default_factory=dict)  # rule -> epoch it keeps (best_path)
+
+    def window_curves(self) -> np.ndarray:
+        """(E, N) validation ADE of each validation window after each epoch."""
+        return np.array([epoch["val_window_ade"] for epoch in self.history], dtype=float)
 
 
 # Config keys that may change between an interrupted run and its resumption.
@@ -193,7 +208,7 @@ def run_training(
     epoch_batches: Callable[[int], list[np.ndarray]],
     train_batch: Callable[[np.ndarray], np.ndarray],
     loss_names: tuple[str, ...],
-    validate: Callable[[], float],
+    validate: Callable[[], np.ndarray],
     epochs: int,
     config: dict[str, Any],
     meta: dict[str, Any],
@@ -208,8 +223,11 @@ def run_training(
     epoch_batches(epoch) draws the epoch's batches (window indices; from `generator` only);
     train_batch(index) makes one optimiser step on one of them (drawing randomness from `generator`
     only) and returns its losses, named `loss_names`, whose means over the epoch go to the history;
-    validate() returns the validation error (lower is better) without touching `generator`. On
-    return the modules hold the best epoch's weights. The modules live on `device`, `generator`
+    validate() returns the validation error of each validation window, (N,) (lower is better),
+    without touching `generator`; the history keeps them and their mean (`val_ade`). Every rule of
+    `pipeline.harness.epoch_selection` keeps its epoch's weights (`best_path`); the weights of the
+    last few epochs stay at hand (in memory and in `last.pt`) until each rule has judged them. On
+    return the modules hold the weights `raw` keeps (the lowest mean validation error). The modules live on `device`, `generator`
     too (its state must be restored on the same kind of device).
 
     Resuming (`pipeline.checkpoints.resume`): a `last.pt` of the same data (`data_fingerprint`:
@@ -226,11 +244,13 @@ def run_training(
     checkpoint_dir = Path(checkpoint_dir)
     checkpoint_dir.mkdir(parents=True, exist_ok=True)
     identity = {**{k: v for k, v in config.items() if k not in RESUMABLE_CHANGES},
-                "data_fingerprint": data_fingerprint}
+                "data_fingerprint": data_fingerprint, "selection_rules": dict(epoch_selection.RULES)}
     start, best_epoch, best_val, history, seconds, partial = 0, -1, float("inf"), [], 0.0, None
+    recent: dict[int, dict[str, dict[str, torch.Tensor]]] = {}  # epoch -> weights, the last few
+    kept: dict[str, int] = {}  # rule -> the epoch whose weights its best file holds
     resumed = checkpoints.resume(checkpoint_dir / LAST, identity, config.get("epochs", 0), name)
     if resumed is None:  # nothing stale may survive a fresh start
-        for stale in (LAST, BEST):
+        for stale in (LAST, *(best_path(checkpoint_dir, rule).name for rule in epoch_selection.RULES)):
             (checkpoint_dir / stale).unlink(missing_ok=True)
     else:
         state = resumed.state
@@ -241,11 +261,13 @@ def run_training(
         _restore_rng(state, generator, device, checkpoint_dir / LAST)
         start, best_epoch, best_val = resumed.epoch, state["best_epoch"], state["best_val"]
         history, seconds, partial = list(state["history"]), state["train_seconds"], resumed.position
+        recent, kept = dict(state["recent_modules"]), dict(state["kept"])
 
     def save_last(epochs_done: int, partial_state: dict[str, Any] | None) -> None:
         checkpoints.save(checkpoint_dir / LAST, identity, epochs_done, {
             "config": config, "meta": meta, "best_epoch": best_epoch, "best_val": best_val,
             "history": history, "train_seconds": seconds, "modules": _state_dicts(modules),
+            "recent_modules": recent, "kept": kept,
             "optimizers": {k: o.state_dict() for k, o in optimizers.items()},
             "rng": {"generator": generator.get_state(), **rng_states(device)},
             "rng_device": generator.device.type,
@@ -275,13 +297,23 @@ def run_training(
         for module in modules.values():
             module.eval()
         with torch.no_grad():
-            val = float(validate())
+            window_errors = np.asarray(validate(), dtype=float)  # (N,)
+        val = float(window_errors.mean())
         seconds += time.perf_counter() - t0
-        history.append({"epoch": epoch, **losses, "val_ade": val})
+        history.append({"epoch": epoch, **losses, "val_ade": val,
+                        "val_window_ade": window_errors.tolist()})
         if val < best_val or best_epoch < 0:
             best_epoch, best_val = epoch, val
-            save_torch({"format": BEST_FORMAT, "config": config, "meta": meta, "epoch": epoch,
-                         "val_ade": val, "modules": _state_dicts(modules)}, checkpoint_dir / BEST)
+        recent[epoch] = _state_dicts(modules)
+        curve = np.array([entry["val_ade"] for entry in history])
+        for rule in epoch_selection.RULES:
+            chosen = epoch_selection.selected_epoch(curve, rule)
+            if kept.get(rule) != chosen:  # never older than the weights at hand (see candidates)
+                kept[rule] = chosen
+                save_torch({"format": BEST_FORMAT, "config": config, "meta": meta, "epoch": chosen,
+                            "val_ade": float(curve[chosen]), "selection": rule,
+                            "modules": recent[chosen]}, best_path(checkpoint_dir, rule))
+        recent = {e: weights for e, weights in recent.items() if e > epoch - epoch_selection.MAX_HALF_WIDTH - 1}
         save_last(epoch + 1, None)
         bar.set_postfix(val_ade=f"{val:.1f}", best=f"{best_val:.1f}@{best_epoch}")
     if best_epoch < 0:
@@ -291,7 +323,7 @@ def run_training(
         module.load_state_dict(best["modules"][key])
         module.eval()
     return FitResult(best_epoch=best_epoch, best_val_ade=best_val, epochs=len(history),
-                     train_seconds=seconds, history=history)
+                     train_seconds=seconds, history=history, selected=dict(kept))
 
 
 def _state_dicts(modules: dict[str, nn.Module]) -> dict[str, dict[str, torch.Tensor]]:
@@ -330,4 +362,4 @@ def fit_result_from(checkpoint_dir: Path) -> FitResult:
     state = checkpoints.read(Path(checkpoint_dir) / LAST).state
     return FitResult(best_epoch=state["best_epoch"], best_val_ade=state["best_val"],
                      epochs=len(state["history"]), train_seconds=state["train_seconds"],
-                     history=list(state["history"]))
+                     history=list(state["history"]), selected=dict(state.get("kept", {})))

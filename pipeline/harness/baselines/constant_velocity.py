@@ -42,8 +42,10 @@ class ConstantVelocity:
         return cls()
 
     @classmethod
-    def load(cls, checkpoint_dir: Path | None = None, device: torch.device | None = None) -> ConstantVelocity:
-        """`device` is taken for a uniform interface: the extrapolation is numpy, on the CPU."""
+    def load(cls, checkpoint_dir: Path | None = None, device: torch.device | None = None,
+             selection: str = "raw") -> ConstantVelocity:
+        """`device` and `selection` are taken for a uniform interface: nothing is trained, and the
+        extrapolation is numpy, on the CPU."""
         return cls()
 
     def predict(self, arrays: WindowArrays, k: int, generator: torch.Generator | None = None,

@@ -260,9 +260,9 @@ class Pecnet:
             batch = make_batch(past[index], groups[index], config, future[index], device)
             return model.train_step(batch, optimizer, rng)
 
-        def validate() -> float:
+        def validate() -> np.ndarray:
             pred = model.predict(val, config.val_k, seeded_generator(device, seed + 1))
-            return float(window_errors(pred, val.future).ade.mean())
+            return window_errors(pred, val.future).ade  # (N,)
 
         model.fit_result = common.run_training(
             name=cls.name, modules={"net": model.net}, optimizers={"net": optimizer},
@@ -289,8 +289,9 @@ class Pecnet:
         return np.array([loss_endpoint.item(), loss_kl.item(), loss_path.item()])
 
     @classmethod
-    def load(cls, checkpoint_dir: Path, device: torch.device = CPU) -> Pecnet:
-        state = common.load_checkpoint(Path(checkpoint_dir) / common.BEST, map_location=device)
+    def load(cls, checkpoint_dir: Path, device: torch.device = CPU, selection: str = "raw") -> Pecnet:
+        """The weights selection rule `selection` kept (`common.best_path`), on `device`."""
+        state = common.load_checkpoint(common.best_path(checkpoint_dir, selection), map_location=device)
         model = cls(PecnetConfig(**state["config"]), state["meta"]["n_past"], state["meta"]["n_future"],
                     device)
         model.net.load_state_dict(state["modules"]["net"])

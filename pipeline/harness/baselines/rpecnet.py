@@ -58,9 +58,10 @@ class RecurrentPecnet:
         self.model = model
 
     @classmethod
-    def load(cls, checkpoint_dir: Path, device: torch.device = CPU) -> RecurrentPecnet:
-        """The PECNet of `checkpoint_dir` (trained for t_f = 5 s in the benchmark), on `device`."""
-        return cls(Pecnet.load(checkpoint_dir, device))
+    def load(cls, checkpoint_dir: Path, device: torch.device = CPU, selection: str = "raw") -> RecurrentPecnet:
+        """The PECNet of `checkpoint_dir` (trained for t_f = 5 s in the benchmark) as selection rule
+        `selection` kept it, on `device`."""
+        return cls(Pecnet.load(checkpoint_dir, device, selection))
 
     def predict(self, arrays: WindowArrays, k: int, generator: torch.Generator,
                 n_future: int | None = None) -> np.ndarray:

@@ -273,9 +273,9 @@ class SocialGan:
                                device)
             return model.train_step(batch, opt_g, opt_d, rng)
 
-        def validate() -> float:
+        def validate() -> np.ndarray:
             pred = model.predict(val, config.val_k, seeded_generator(device, seed + 1))
-            return float(window_errors(pred, val.future).ade.mean())
+            return window_errors(pred, val.future).ade  # (N,)
 
         model.fit_result = common.run_training(
             name=cls.name, modules={"generator": model.generator, "discriminator": model.discriminator},
@@ -324,8 +324,9 @@ class SocialGan:
         return np.array([loss_d.item(), loss_adv.item(), loss_l2.item()])
 
     @classmethod
-    def load(cls, checkpoint_dir: Path, device: torch.device = CPU) -> SocialGan:
-        state = common.load_checkpoint(Path(checkpoint_dir) / common.BEST, map_location=device)
+    def load(cls, checkpoint_dir: Path, device: torch.device = CPU, selection: str = "raw") -> SocialGan:
+        """The weights selection rule `selection` kept (`common.best_path`), on `device`."""
+        state = common.load_checkpoint(common.best_path(checkpoint_dir, selection), map_location=device)
         model = cls(SganConfig(**state["config"]), state["meta"]["n_past"], state["meta"]["n_future"], device)
         model.generator.load_state_dict(state["modules"]["generator"])
         model.discriminator.load_state_dict(state["modules"]["discriminator"])

@@ -1,0 +1,56 @@
+"""Stage `epoch_selection`: which epoch selection rule the long-term baselines are scored with,
+judged on validation windows alone.
+
+Every trained long-term baseline (S-GAN and PECNet, every horizon, the main training seed and the
+extra ones) recorded its per-window validation ADE after each epoch. For each run the study halves
+the validation windows at random, lets each rule (`raw`, `mean3`, ...) choose an epoch on one half
+and scores it on the other (`pipeline.harness.epoch_selection`), then pools the runs: per rule the
+mean ratio of its held-out ADE to `raw`'s, overall and per horizon, and the rule with the lowest
+(`summary.recommended`), which `evaluate_baseline.epoch_selection` is set to. The test windows are
+never read. Params: `epoch_selection_study`, `windows.horizons`, `train_baseline.seed`,
+`baseline_seeds.extra`.
+
+    python -m pipeline.stages.epoch_selection --checkpoints checkpoints --out metrics/epoch_selection.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from pipeline.config import (BaselineSeedsParams, EpochSelectionStudyParams, TrainBaselineParams,
+                             WindowParams, load_section, read_params)
+from pipeline.harness import baselines
+from pipeline.harness.baseline_runs import epoch_selection_study
+from pipeline.io import write_json
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--checkpoints", type=Path, required=True,
+                        help="folder of <model>_tf<H>/ (main seed) and seeds/<model>_tf<H>_seed<S>/")
+    parser.add_argument("--out", type=Path, required=True, help="JSON written")
+    args = parser.parse_args(argv)
+    params = read_params()
+    study = load_section(EpochSelectionStudyParams, "epoch_selection_study", params)
+    horizons = load_section(WindowParams, "windows", params).horizons
+    main_seed = load_section(TrainBaselineParams, "train_baseline", params).seed
+    extra = load_section(BaselineSeedsParams, "baseline_seeds", params).extra
+    runs = []
+    for model in baselines.TRAINABLE:
+        for horizon in horizons:
+            runs.append((model, horizon, main_seed, args.checkpoints / f"{model}_tf{horizon}"))
+            runs += [(model, horizon, seed, args.checkpoints / "seeds" / f"{model}_tf{horizon}_seed{seed}")
+                     for seed in extra]
+    record = epoch_selection_study(runs, study.n_splits, study.seed)
+    summary = record["summary"]
+    for rule, row in summary["overall"].items():
+        print(f"epoch_selection: {rule:6s} held-out val ADE / raw's {row['mean_ratio_to_raw']:.4f} "
+              f"(better on {row['runs_better_than_raw']}, worse on {row['runs_worse_than_raw']} "
+              f"of {row['runs']} runs)")
+    print(f"epoch_selection: recommended {summary['recommended']}")
+    write_json(record, args.out)
+
+
+if __name__ == "__main__":
+    main()
