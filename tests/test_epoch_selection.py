@@ -6,19 +6,25 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
+import yaml
 
+from pipeline.config import read_params
 from pipeline.harness import baseline_runs, epoch_selection
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.pecnet import Pecnet
+from pipeline.harness.baselines.sgan import SocialGan
 from pipeline.harness.epoch_selection import (centred_mean, selected_epoch, split_half_study,
                                               summarise)
-from tests.test_baselines import TINY_PECNET, straight_tracks
+from pipeline.stages import epoch_selection as stage
+from tests.test_baselines import TINY_PECNET, TINY_SGAN, straight_tracks
 
 torch.set_num_threads(1)
+REPO = Path(__file__).resolve().parents[1]
 
 
 def test_centred_mean_is_cut_at_the_ends():
@@ -164,12 +170,18 @@ def test_evaluation_scores_the_weights_of_the_chosen_rule(tmp_path):
         Pecnet.load(tmp_path, selection="best_ever")
 
 
-def test_stage_studies_every_run_and_names_a_run_without_curves(tmp_path, monkeypatch):
-    from pipeline.config import read_params
-    from pipeline.stages import epoch_selection as stage
-    from pipeline.harness.baselines.sgan import SocialGan
-    from tests.test_baselines import TINY_SGAN
+def test_dvc_yaml_lists_the_checkpoint_folders_of_every_run_the_stage_reads():
+    """The stage's deps are written out by hand in dvc.yaml (DVC cannot loop over params there):
+    they must be exactly the folders `long_term_runs` gives under params.yaml."""
+    params = read_params(REPO / "params.yaml")
+    runs = baseline_runs.long_term_runs(Path("checkpoints"), params["windows"]["horizons"],
+                                        params["train_baseline"]["seed"], params["baseline_seeds"]["extra"])
+    deps = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]["epoch_selection"]["deps"]
+    assert sorted(d for d in deps if d.startswith("checkpoints/")) == sorted(str(run[3]) for run in runs)
+    assert len(runs) == 2 * len(params["windows"]["horizons"]) * (1 + len(params["baseline_seeds"]["extra"]))
 
+
+def test_stage_studies_every_run_and_names_a_run_without_curves(tmp_path, monkeypatch):
     params = read_params()
     params["windows"]["horizons"], params["baseline_seeds"]["extra"] = [5], [1]
     params["epoch_selection_study"] = {"n_splits": 20, "seed": 0}

@@ -105,6 +105,20 @@ def validation_curve(checkpoint_dir: Path) -> list[float]:
     return [float(epoch["val_ade"]) for epoch in fit_result_from(checkpoint_dir).history]
 
 
+def long_term_runs(checkpoints: Path, horizons: list[int], main_seed: int,
+                   extra_seeds: list[int]) -> list[tuple[str, int, int, Path]]:
+    """Every trained long-term baseline run as (model, horizon, training seed, checkpoint folder):
+    `<model>_tf<H>` for the main seed (stage `train_baseline`), `seeds/<model>_tf<H>_seed<S>` for
+    the extra ones (`train_baseline_seed`), the folders of dvc.yaml's `epoch_selection` deps."""
+    runs = []
+    for model in baselines.TRAINABLE:
+        for horizon in horizons:
+            runs.append((model, horizon, main_seed, Path(checkpoints) / f"{model}_tf{horizon}"))
+            runs += [(model, horizon, seed, Path(checkpoints) / "seeds" / f"{model}_tf{horizon}_seed{seed}")
+                     for seed in extra_seeds]
+    return runs
+
+
 def epoch_selection_study(runs: list[tuple[str, int, int, Path]], n_splits: int, seed: int) -> dict:
     """The split-half study of every trained run (model, horizon, training seed, checkpoint folder):
     per run, each rule's held-out validation ADE (`epoch_selection.split_half_study`) and the epoch
@@ -196,7 +210,6 @@ def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | 
     every round's test predictions written to `predictions` (no weights: these models give none;
     None: not kept, as for the extra training seeds)."""
     evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
-    epoch_selection.half_width(evaluation.epoch_selection)  # an unknown rule fails before any work
     n_past = load_section(WindowParams, "windows", params).n_past
     torch.set_num_threads(evaluation.threads)
     device = select_device(load_section(RuntimeParams, "runtime", params).device)

@@ -20,8 +20,7 @@ from pathlib import Path
 
 from pipeline.config import (BaselineSeedsParams, EpochSelectionStudyParams, TrainBaselineParams,
                              WindowParams, load_section, read_params)
-from pipeline.harness import baselines
-from pipeline.harness.baseline_runs import epoch_selection_study
+from pipeline.harness.baseline_runs import epoch_selection_study, long_term_runs
 from pipeline.io import write_json
 
 
@@ -36,12 +35,7 @@ def main(argv: list[str] | None = None) -> None:
     horizons = load_section(WindowParams, "windows", params).horizons
     main_seed = load_section(TrainBaselineParams, "train_baseline", params).seed
     extra = load_section(BaselineSeedsParams, "baseline_seeds", params).extra
-    runs = []
-    for model in baselines.TRAINABLE:
-        for horizon in horizons:
-            runs.append((model, horizon, main_seed, args.checkpoints / f"{model}_tf{horizon}"))
-            runs += [(model, horizon, seed, args.checkpoints / "seeds" / f"{model}_tf{horizon}_seed{seed}")
-                     for seed in extra]
+    runs = long_term_runs(args.checkpoints, horizons, main_seed, extra)
     record = epoch_selection_study(runs, study.n_splits, study.seed)
     summary = record["summary"]
     for rule, row in summary["overall"].items():

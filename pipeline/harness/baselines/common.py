@@ -245,7 +245,7 @@ def run_training(
     checkpoint_dir.mkdir(parents=True, exist_ok=True)
     identity = {**{k: v for k, v in config.items() if k not in RESUMABLE_CHANGES},
                 "data_fingerprint": data_fingerprint, "selection_rules": dict(epoch_selection.RULES)}
-    start, best_epoch, best_val, history, seconds, partial = 0, -1, float("inf"), [], 0.0, None
+    start, history, seconds, partial = 0, [], 0.0, None
     recent: dict[int, dict[str, dict[str, torch.Tensor]]] = {}  # epoch -> weights, the last few
     kept: dict[str, int] = {}  # rule -> the epoch whose weights its best file holds
     resumed = checkpoints.resume(checkpoint_dir / LAST, identity, config.get("epochs", 0), name)
@@ -259,14 +259,19 @@ def run_training(
         for key, opt in optimizers.items():
             opt.load_state_dict(state["optimizers"][key])
         _restore_rng(state, generator, device, checkpoint_dir / LAST)
-        start, best_epoch, best_val = resumed.epoch, state["best_epoch"], state["best_val"]
-        history, seconds, partial = list(state["history"]), state["train_seconds"], resumed.position
+        start, history, partial = resumed.epoch, list(state["history"]), resumed.position
+        seconds = state["train_seconds"]
         recent, kept = dict(state["recent_modules"]), dict(state["kept"])
 
-    def save_last(epochs_done: int, partial_state: dict[str, Any] | None) -> None:
+    def save_last(epochs_done: int, partial_state: dict[str, Any] | None,
+                  weights: dict[str, dict[str, torch.Tensor]] | None = None) -> None:
+        """`weights`: the modules' state as already copied (at an epoch's end), else copied now."""
+        best_epoch = kept.get("raw", -1)  # the lowest mean validation error so far (-1: none yet)
         checkpoints.save(checkpoint_dir / LAST, identity, epochs_done, {
-            "config": config, "meta": meta, "best_epoch": best_epoch, "best_val": best_val,
-            "history": history, "train_seconds": seconds, "modules": _state_dicts(modules),
+            "config": config, "meta": meta, "best_epoch": best_epoch,
+            "best_val": history[best_epoch]["val_ade"] if best_epoch >= 0 else float("inf"),
+            "history": history, "train_seconds": seconds,
+            "modules": _state_dicts(modules) if weights is None else weights,
             "recent_modules": recent, "kept": kept,
             "optimizers": {k: o.state_dict() for k, o in optimizers.items()},
             "rng": {"generator": generator.get_state(), **rng_states(device)},
@@ -302,8 +307,6 @@ def run_training(
         seconds += time.perf_counter() - t0
         history.append({"epoch": epoch, **losses, "val_ade": val,
                         "val_window_ade": window_errors.tolist()})
-        if val < best_val or best_epoch < 0:
-            best_epoch, best_val = epoch, val
         recent[epoch] = _state_dicts(modules)
         curve = np.array([entry["val_ade"] for entry in history])
         for rule in epoch_selection.RULES:
@@ -314,16 +317,17 @@ def run_training(
                             "val_ade": float(curve[chosen]), "selection": rule,
                             "modules": recent[chosen]}, best_path(checkpoint_dir, rule))
         recent = {e: weights for e, weights in recent.items() if e > epoch - epoch_selection.MAX_HALF_WIDTH - 1}
-        save_last(epoch + 1, None)
-        bar.set_postfix(val_ade=f"{val:.1f}", best=f"{best_val:.1f}@{best_epoch}")
-    if best_epoch < 0:
+        save_last(epoch + 1, None, recent[epoch])
+        bar.set_postfix(val_ade=f"{val:.1f}", best=f"{curve[kept['raw']]:.1f}@{kept['raw']}")
+    if not history:
         raise ValueError(f"{name}: no epoch trained (epochs = {epochs})")
+    best_epoch = kept["raw"]
     best = load_checkpoint(checkpoint_dir / BEST, map_location=device)
     for key, module in modules.items():
         module.load_state_dict(best["modules"][key])
         module.eval()
-    return FitResult(best_epoch=best_epoch, best_val_ade=best_val, epochs=len(history),
-                     train_seconds=seconds, history=history, selected=dict(kept))
+    return FitResult(best_epoch=best_epoch, best_val_ade=history[best_epoch]["val_ade"],
+                     epochs=len(history), train_seconds=seconds, history=history, selected=dict(kept))
 
 
 def _state_dicts(modules: dict[str, nn.Module]) -> dict[str, dict[str, torch.Tensor]]:
