@@ -109,7 +109,7 @@ def sdd_sampler(ids: np.ndarray):
 
     def sample(seed: int):
         return np.stack([f[None] + TRIANGLE[ORDER[w]][:, None] + (np.array(s) if seed else 0.0)
-                         for f, w, s in zip(futures, FUTURE, shifts)]), None
+                         for f, w, s in zip(futures, FUTURE, shifts)]), None, None
     assert len(ids) == 3
     return sample
 
@@ -121,7 +121,7 @@ def zara_sampler(seed: int):
     paths = truth[:, None] + 0.1 * TRIANGLE[None, :, None]  # (2, K, T, 2)
     if seed:
         paths[0] += [0.0, SHIFT]
-    return paths * 2.0, None
+    return paths * 2.0, None, None
 
 
 @pytest.fixture

@@ -13,13 +13,16 @@ from pipeline.config import CwsParams, EvalParams, TtstParams
 from pipeline.runners import ynet_training as train_ynet
 
 from pipeline.harness.metrics import window_errors
-from pipeline.runners.ynet_scoring import (evaluate, evaluation_sequence, load_model, predict_scenes,
-                                          sampling_options)
+from pipeline.runners.ynet_scoring import (Sampling, evaluate, evaluation_sequence, load_model,
+                                           predict_samplings, predict_scenes, sampling_options)
 from pipeline.runners.ynet_training import YnetSettings, run_fingerprint, scale_waypoints, train
 from pipeline.preemption import Preemption, StopRequested
 from pipeline.data.window_table import WindowArrays
-from pipeline.data.ynet_data import group_by_scene
+from pipeline.data.ynet_data import group_by_scene, window_inputs
+from pipeline.device import CPU, generator
 from ynet.heatmaps import upstream_max_distance
+from ynet.sampling import predict
+from ynet.segmentation import PAD_CLASS
 
 N_PAST, N_FUTURE = 3, 4
 
@@ -157,12 +160,17 @@ def test_a_checkpoint_of_other_settings_is_not_resumed(tmp_path, capsys):
         torch.testing.assert_close(straight[name], restarted[name], rtol=0, atol=0)
 
 
-def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
+def trained_and_test_scenes(tmp_path):
+    """A model trained by `run` (one thread), three test windows and their scene, ready to score."""
     torch.set_num_threads(1)
     run(tmp_path)
     model, settings = load_model(tmp_path / "best.pt")
     test = arrays(3, "test", 2)
-    scenes = group_by_scene(test, MAPS, SIZES, settings.resize)
+    return model, settings, test, group_by_scene(test, MAPS, SIZES, settings.resize)
+
+
+def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
+    model, settings, test, scenes = trained_and_test_scenes(tmp_path)
     options = sampling_options(3, 2, TtstParams(), CwsParams(), True, True)
     params = EvalParams(k_e=3, k_a=2, rounds=2, batch_size=2)
     first = evaluate(model, scenes, settings, options, params, test.future, 2, "a")
@@ -185,11 +193,7 @@ def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
 
 def test_the_grid_cell_of_the_main_setting_equals_sampling_it_afresh(tmp_path):
     """The K_a grid takes its (k_e, k_a) = main cell from the main result's first round."""
-    torch.set_num_threads(1)
-    run(tmp_path)
-    model, settings = load_model(tmp_path / "best.pt")
-    test = arrays(3, "test", 2)
-    scenes = group_by_scene(test, MAPS, SIZES, settings.resize)
+    model, settings, test, scenes = trained_and_test_scenes(tmp_path)
     params = EvalParams(k_e=3, k_a=1, rounds=2, ablation_rounds=0, ka_grid_k_e=[3], ka_grid_k_a=[1, 2],
                         batch_size=2)
     result = evaluation_sequence(model, scenes, settings, params, TtstParams(), CwsParams(), test.future)
@@ -197,6 +201,59 @@ def test_the_grid_cell_of_the_main_setting_equals_sampling_it_afresh(tmp_path):
         options = sampling_options(cell["k_e"], cell["k_a"], TtstParams(), CwsParams(), True, True)
         assert cell == evaluate(model, scenes, settings, options, params, test.future, 1, "fresh")
     assert result["ka_grid"][0]["per_round"] == result["main"]["per_round"][:1]
+
+
+def separate_pass(model, scenes, settings, options, seed, params, n_windows):
+    """One sampling over every window with `ynet.sampling.predict` (encoder included), batch after
+    batch: what scoring did before it encoded each batch once for all samplings."""
+    draws = generator(CPU, seed)
+    paths = np.zeros((n_windows, options.K, N_FUTURE, 2))
+    goals = np.zeros((n_windows, options.K, 2))
+    for scene in scenes:
+        for start in range(0, len(scene), params.batch_size):
+            past = scene.past[start:start + params.batch_size]
+            inputs, origin = window_inputs(scene.semantic, past, settings.max_distance, 0, PAD_CLASS)
+            out = predict(model, inputs, past[:, -1] - origin, options, draws, settings.max_distance,
+                          params.chunk_size, params.bf16)
+            rows = scene.index[start:start + params.batch_size]
+            paths[rows] = (out.trajectory + origin[:, None, None]).numpy() / settings.resize
+            goals[rows] = (out.goals + origin[:, None]).numpy() / settings.resize
+    return paths, goals
+
+
+@pytest.mark.parametrize("bf16", [False, True])
+def test_samplings_of_one_pass_equal_separate_passes(tmp_path, bf16):
+    """Encoding each batch once and sampling it for every setting gives, bit for bit, what one
+    full pass per setting gives (each setting's generator is consumed in the same order)."""
+    torch.set_num_threads(1)
+    run(tmp_path)
+    model, settings = load_model(tmp_path / "best.pt")
+    test = arrays(5, "test", 2)
+    test.scene_id[3:] = "gates_1"  # two scenes, the first of three windows: a partial batch
+    maps, sizes = {**MAPS, "gates_1": MAPS["gates_0"][:, :48]}, {**SIZES, "gates_1": (192, 256)}
+    scenes = group_by_scene(test, maps, sizes, settings.resize)
+    params = EvalParams(k_e=3, k_a=2, batch_size=2, chunk_size=4, bf16=bf16)
+    samplings = [Sampling(sampling_options(3, 2, TtstParams(), CwsParams(), True, True), 0),
+                 Sampling(sampling_options(3, 2, TtstParams(), CwsParams(), False, False), 0),
+                 Sampling(sampling_options(2, 1, TtstParams(temperature=2.0), CwsParams(), True, True), 5)]
+    sampled, shared_seconds = predict_samplings(model, scenes, settings, samplings, params, 5, "one")
+    assert shared_seconds > 0
+    for sampling, drawn in zip(samplings, sampled):
+        paths, goals = separate_pass(model, scenes, settings, sampling.options, sampling.seed, params, 5)
+        assert np.array_equal(drawn.paths, paths) and np.array_equal(drawn.goals, goals)
+        assert drawn.seconds > 0
+
+
+def test_the_ablation_of_the_sequence_equals_evaluating_it_alone(tmp_path):
+    model, settings, test, scenes = trained_and_test_scenes(tmp_path)
+    params = EvalParams(k_e=3, k_a=1, rounds=2, ablation_rounds=2, ka_grid_k_e=[], batch_size=2)
+    result = evaluation_sequence(model, scenes, settings, params, TtstParams(), CwsParams(), test.future)
+    assert "ka_grid" not in result and result["ablation"]["ttst_cws"] == result["main"]
+    assert result["eval_seconds"] >= result["main_seconds"] > 0
+    for name, use_ttst, use_cws in (("none", False, False), ("cws", False, True), ("ttst_cws", True, True)):
+        options = sampling_options(3, 1, TtstParams(), CwsParams(), use_ttst, use_cws)
+        alone = evaluate(model, scenes, settings, options, params, test.future, 2, name)
+        assert result["ablation"][name] == alone
 
 
 @pytest.mark.parametrize("n_future, expected", [(30, [14, 29]), (60, [29, 59]), (5, [2, 4]),

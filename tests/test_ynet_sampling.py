@@ -12,12 +12,14 @@ from ynet.sampling import (
     cws_waypoints,
     expected_position,
     distinct_points,
+    goal_masses,
     kmeans,
     nearest_centre,
     predict,
     sample_positions,
     sample_waypoints,
     softargmax,
+    ttst,
     ttst_goals,
 )
 
@@ -251,13 +253,20 @@ def test_options_checks():
     assert SamplingOptions(K_e=20, K_a=5).K == 100
 
 
-@pytest.mark.parametrize("bf16", [False, True])
-def test_predict_shapes_and_determinism(bf16):
+def tiny_model_and_windows(b: int) -> tuple[YNet, torch.Tensor, torch.Tensor]:
+    """A randomly initialised tiny Y-net (seed 0), `b` random pasts (b, obs_len, 2) on a 40 x 48 map
+    and their inputs (b, C + obs_len, 40, 48)."""
     torch.manual_seed(0)
     model = YNet(CFG)
     h, w = 40, 48
-    past = torch.rand(2, CFG.obs_len, 2) * torch.tensor([w - 1.0, h - 1.0])
-    x = scene_and_past(torch.softmax(torch.randn(2, CFG.semantic_classes, h, w), 1), past, 60.0)
+    past = torch.rand(b, CFG.obs_len, 2) * torch.tensor([w - 1.0, h - 1.0])
+    x = scene_and_past(torch.softmax(torch.randn(b, CFG.semantic_classes, h, w), 1), past, 60.0)
+    return model, past, x
+
+
+@pytest.mark.parametrize("bf16", [False, True])
+def test_predict_shapes_and_determinism(bf16):
+    model, past, x = tiny_model_and_windows(2)
     options = SamplingOptions(K_e=5, K_a=2, temperature=1.0, rel_threshold=0.01)
     runs = [predict(model, x, past[:, -1], options, gen(7), 60.0, chunk_size=3, bf16=bf16) for _ in range(2)]
     p = runs[0]
@@ -274,16 +283,44 @@ def test_predict_shapes_and_determinism(bf16):
 
 
 def test_predict_bf16_changes_only_the_trajectory_decoder():
-    torch.manual_seed(0)
-    model = YNet(CFG)
-    h, w = 40, 48
-    past = torch.rand(1, CFG.obs_len, 2) * torch.tensor([w - 1.0, h - 1.0])
-    x = scene_and_past(torch.softmax(torch.randn(1, CFG.semantic_classes, h, w), 1), past, 60.0)
+    model, past, x = tiny_model_and_windows(1)
     options = SamplingOptions(K_e=4, K_a=2, temperature=1.0, rel_threshold=0.01)
     fp32 = predict(model, x, past[:, -1], options, gen(3), 60.0)
     bf16 = predict(model, x, past[:, -1], options, gen(3), 60.0, bf16=True)
     assert torch.equal(fp32.waypoints, bf16.waypoints)
     assert_close(bf16.trajectory, fp32.trajectory, rtol=0, atol=0.5)
+
+
+def test_goal_masses_are_the_share_of_draws_nearest_each_goal():
+    # window 0: 3 draws at (0, 0), one at (9, 0); goals (1, 0) and (8, 0) -> 3/4 and 1/4
+    # window 1: a tie at (5, 0) between goals (4, 0) and (6, 0) goes to the first goal
+    draws = torch.tensor([[[0.0, 0.0], [0.0, 0.0], [9.0, 0.0], [0.0, 0.0]],
+                          [[5.0, 0.0], [7.0, 0.0], [7.0, 0.0], [6.0, 0.0]]])  # (2, 4, 2)
+    goals = torch.tensor([[[1.0, 0.0], [8.0, 0.0]], [[4.0, 0.0], [6.0, 0.0]]])  # (2, 2, 2)
+    assert goal_masses(draws, goals).tolist() == [[0.75, 0.25], [0.25, 0.75]]
+
+
+def test_ttst_masses_sum_to_one_and_favour_the_heavier_mode():
+    logits = two_mode_logits()[None]  # (1, H, W)
+    options = SamplingOptions(K_e=5, temperature=1.0, rel_threshold=0.01)
+    goals, masses = ttst(logits, options, gen(0))
+    assert torch.equal(goals, ttst_goals(logits, options, gen(0)))  # the same draws
+    assert masses.shape == (1, 5) and (masses >= 0).all()
+    assert_close(masses.sum(-1), torch.ones(1))
+    single, mass = ttst(logits, SamplingOptions(K_e=1), gen(0))
+    assert single.shape == (1, 1, 2) and mass.tolist() == [[1.0]]
+
+
+def test_predict_weights_split_each_goal_mass_among_its_paths():
+    model, past, x = tiny_model_and_windows(2)
+    options = SamplingOptions(K_e=4, K_a=3, temperature=1.0, rel_threshold=0.01)
+    p = predict(model, x, past[:, -1], options, gen(2), 60.0)
+    assert p.weights.shape == (2, 12)
+    assert_close(p.weights.sum(-1), torch.ones(2))
+    by_path = p.weights.view(2, 3, 4)  # path-major: sample k is goal k % K_e, path k // K_e
+    assert torch.equal(by_path, by_path[:, :1].expand(2, 3, 4))
+    plain = SamplingOptions(K_e=4, K_a=1, temperature=1.0, use_ttst=False, use_cws=False)
+    assert predict(model, x, past[:, -1], plain, gen(2), 60.0).weights is None
 
 
 def test_nearest_centre_is_the_first_centre_at_the_least_squared_distance():

@@ -76,6 +76,9 @@ class Prediction:
     trajectory: torch.Tensor  # (B, K, n_f, 2) softargmax of every trajectory heatmap
     goals: torch.Tensor  # (B, K, 2) the sampled goal of each sample
     waypoints: torch.Tensor  # (B, K, n_w, 2) the sampled waypoints, goal last
+    weights: torch.Tensor | None = None
+    """(B, K) each sample's share of its window, summing to 1: with TTST the `goal_masses` of its
+    goal split evenly among the goal's K_a paths; None without TTST (plain draws carry no mass)."""
 
 
 def _coords(height: int, width: int, like: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -205,10 +208,21 @@ def kmeans(
     return centres
 
 
-def ttst_goals(
+def goal_masses(draws: torch.Tensor, goals: torch.Tensor) -> torch.Tensor:
+    """TTST's weight of each goal: the share of the goal-map draws (B, S, 2) nearest to it among
+    the goals (B, K_e, 2) -> (B, K_e), rows summing to 1 (the first goal on ties). The softargmax
+    goal competes with the k-means centres, so each goal weighs the part of the map it stands for."""
+    unique, counts = distinct_points(draws)  # (B, U, 2), (B, U)
+    nearest = nearest_centre(unique, goals)  # (B, U)
+    masses = counts.new_zeros(goals.shape[:2]).scatter_add_(1, nearest, counts)  # (B, K_e)
+    return masses / draws.shape[1]
+
+
+def ttst(
     goal_logits: torch.Tensor, options: SamplingOptions, generator: torch.Generator
-) -> torch.Tensor:
-    """TTST: K_e goals per window from goal logits (B, H, W) -> (B, K_e, 2).
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """TTST: K_e goals per window from goal logits (B, H, W) -> goals (B, K_e, 2) and their
+    `goal_masses` (B, K_e).
 
     Goal 0 is the softargmax of the raw logits; the other K_e - 1 are k-means centres of
     `ttst_samples` draws from sigmoid(logits / T), pixels below rel_threshold * max suppressed.
@@ -216,11 +230,19 @@ def ttst_goals(
     """
     best = softargmax(goal_logits)[:, None]  # (B, 1, 2)
     if options.K_e == 1:
-        return best
+        return best, torch.ones_like(best[..., 0])
     prob = torch.sigmoid(goal_logits / options.temperature)  # (B, H, W)
     draws = sample_positions(prob, options.ttst_samples, generator, options.rel_threshold)  # (B, S, 2)
     centres = kmeans(draws, options.K_e - 1, generator, options.kmeans_max_iter, options.kmeans_tol)
-    return torch.cat([best, centres], dim=1)  # (B, K_e, 2)
+    goals = torch.cat([best, centres], dim=1)  # (B, K_e, 2)
+    return goals, goal_masses(draws, goals)
+
+
+def ttst_goals(
+    goal_logits: torch.Tensor, options: SamplingOptions, generator: torch.Generator
+) -> torch.Tensor:
+    """TTST's goals (B, K_e, 2) without their masses (`ttst`)."""
+    return ttst(goal_logits, options, generator)[0]
 
 
 def cws_log_prior(
@@ -321,31 +343,94 @@ def cws_waypoints(
     return torch.cat(paths, dim=1)  # (B, K_a*K_e, n_w, 2)
 
 
+def sample_weighted_waypoints(
+    waypoint_logits: torch.Tensor,
+    last_observed: torch.Tensor,
+    options: SamplingOptions,
+    generator: torch.Generator,
+) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Goals and waypoints for every sample: (B, n_w, H, W) logits, goal last -> (B, K_e*K_a, n_w, 2),
+    and each sample's weight (B, K) (`Prediction.weights`; None without TTST).
+
+    Goals: TTST, or K_e distinct pixels drawn from sigmoid(goal / T). Waypoints: CWS, or one
+    independent draw per sample from each sigmoid(waypoint / T) map.
+    """
+    b, n_w, height, width = waypoint_logits.shape
+    weights = None
+    if options.use_ttst:
+        goals, masses = ttst(waypoint_logits[:, -1], options, generator)  # (B, K_e, 2), (B, K_e)
+        weights = masses.repeat(1, options.K_a) / options.K_a  # (B, K), path-major as the goals
+    else:  # as the authors: K_e distinct pixels, no relative threshold
+        prob = torch.sigmoid(waypoint_logits[:, -1] / options.temperature)
+        goals = sample_positions(prob, options.K_e, generator, replacement=False)
+    goals = goals.repeat(1, options.K_a, 1)  # (B, K, 2), path-major
+    if n_w == 1:
+        return goals[:, :, None], weights
+    if options.use_cws:
+        return cws_waypoints(waypoint_logits, goals, last_observed, options, generator), weights
+    prob = torch.sigmoid(waypoint_logits[:, :-1] / options.temperature)  # (B, n_w - 1, H, W)
+    drawn = sample_positions(prob, options.K, generator)  # (B, n_w - 1, K, 2)
+    return torch.cat([drawn.transpose(1, 2), goals[:, :, None]], dim=2), weights  # (B, K, n_w, 2)
+
+
 def sample_waypoints(
     waypoint_logits: torch.Tensor,
     last_observed: torch.Tensor,
     options: SamplingOptions,
     generator: torch.Generator,
 ) -> torch.Tensor:
-    """Goals and waypoints for every sample: (B, n_w, H, W) logits, goal last -> (B, K_e*K_a, n_w, 2).
+    """`sample_weighted_waypoints` without the weights: (B, K_e*K_a, n_w, 2)."""
+    return sample_weighted_waypoints(waypoint_logits, last_observed, options, generator)[0]
 
-    Goals: TTST, or K_e distinct pixels drawn from sigmoid(goal / T). Waypoints: CWS, or one
-    independent draw per sample from each sigmoid(waypoint / T) map.
-    """
-    b, n_w, height, width = waypoint_logits.shape
-    if options.use_ttst:
-        goals = ttst_goals(waypoint_logits[:, -1], options, generator)  # (B, K_e, 2)
-    else:  # as the authors: K_e distinct pixels, no relative threshold
-        prob = torch.sigmoid(waypoint_logits[:, -1] / options.temperature)
-        goals = sample_positions(prob, options.K_e, generator, replacement=False)
-    goals = goals.repeat(1, options.K_a, 1)  # (B, K, 2), path-major
-    if n_w == 1:
-        return goals[:, :, None]
-    if options.use_cws:
-        return cws_waypoints(waypoint_logits, goals, last_observed, options, generator)
-    prob = torch.sigmoid(waypoint_logits[:, :-1] / options.temperature)  # (B, n_w - 1, H, W)
-    drawn = sample_positions(prob, options.K, generator)  # (B, n_w - 1, K, 2)
-    return torch.cat([drawn.transpose(1, 2), goals[:, :, None]], dim=2)  # (B, K, n_w, 2)
+
+@dataclass(frozen=True)
+class Encoded:
+    """What `encode` computes once for a batch of windows and every sampling of them reuses: the
+    encoder's features and the waypoint logits (goal last). Nothing in it is random."""
+
+    features: list[torch.Tensor]  # encoder features, fine to coarse, channels_last
+    waypoint_logits: torch.Tensor  # (B, n_w, H, W)
+
+
+def encode(model: YNet, scene_and_past: torch.Tensor) -> Encoded:
+    """The encoder and the goal decoder (float32, channels_last: about 1.5x faster convs on CPU)
+    for a batch of windows on one map: (B, C + n_p, H, W) -> `Encoded`."""
+    x = scene_and_past.contiguous(memory_format=torch.channels_last)
+    with torch.inference_mode():
+        features = model.encode(x)
+        goal_logits = model.predict_goals(features)  # (B, n_f, H, W)
+        waypoint_logits = goal_logits[:, list(model.config.waypoints)].contiguous()
+    return Encoded(features=features, waypoint_logits=waypoint_logits)
+
+
+def predict_encoded(
+    model: YNet,
+    encoded: Encoded,
+    last_observed: torch.Tensor,
+    options: SamplingOptions,
+    generator: torch.Generator,
+    max_distance: float | None = None,
+    chunk_size: int = 8,
+    bf16: bool = False,
+) -> Prediction:
+    """`predict` after its `encode`: goals and waypoints drawn from `encoded`'s maps, and the
+    trajectory decoder for every sample. Several samplings of one `encode` (other seeds, other
+    options) give exactly what as many `predict` calls give, without re-running the encoder."""
+    height, width = encoded.waypoint_logits.shape[-2:]
+    with torch.inference_mode():
+        samples, weights = sample_weighted_waypoints(encoded.waypoint_logits, last_observed.float(),
+                                                     options, generator)
+        steps = []
+        for start in range(0, options.K, chunk_size):
+            chunk = samples[:, start : start + chunk_size]  # (B, k, n_w, 2)
+            maps = distance_maps(chunk.flatten(1, 2), height, width, max_distance)  # (B, k*n_w, H, W)
+            maps = maps.unflatten(1, chunk.shape[1:3])  # (B, k, n_w, H, W)
+            with torch.autocast(samples.device.type, dtype=torch.bfloat16, enabled=bf16):
+                logits = model.predict_trajectory(encoded.features, maps)  # (B, k, n_f, H, W)
+            steps.append(softargmax(logits.float()))  # (B, k, n_f, 2)
+        trajectory = torch.cat(steps, dim=1)  # (B, K, n_f, 2)
+    return Prediction(trajectory=trajectory, goals=samples[:, :, -1], waypoints=samples,
+                      weights=weights)
 
 
 def predict(
@@ -364,10 +449,10 @@ def predict(
     observed position; max_distance: the distance-map normaliser used for training (for the goal and
     waypoint maps given to the trajectory decoder).
 
-    The encoder and the goal decoder run once; the trajectory decoder runs once per sample, batched
-    `chunk_size` samples per window at a time (its encoder skips are shared, see
-    `ynet.model.shared_input_conv`), and only each heatmap's softargmax is kept. Everything runs in
-    channels_last (about 1.5x faster convs on CPU).
+    The encoder and the goal decoder run once (`encode`); the trajectory decoder runs once per
+    sample (`predict_encoded`), batched `chunk_size` samples per window at a time (its encoder
+    skips are shared, see `ynet.model.shared_input_conv`), and only each heatmap's softargmax is
+    kept. Everything runs in channels_last (about 1.5x faster convs on CPU).
 
     `bf16=True` runs the trajectory decoder (about three quarters of the time on CPU) under
     bfloat16 autocast (on the inputs' device): about 1.5x faster on CPUs with AMX / AVX512-BF16,
@@ -375,21 +460,5 @@ def predict(
     (and FDE) are bit-identical to float32; trajectory positions move by a fraction
     of a pixel (0.01 px mean, 0.04 px max on an overfitted tiny model like the tests').
     """
-    cfg = model.config
-    height, width = scene_and_past.shape[-2:]
-    x = scene_and_past.contiguous(memory_format=torch.channels_last)
-    with torch.inference_mode():
-        features = model.encode(x)
-        goal_logits = model.predict_goals(features)  # (B, n_f, H, W)
-        waypoint_logits = goal_logits[:, list(cfg.waypoints)].contiguous()  # (B, n_w, H, W)
-        samples = sample_waypoints(waypoint_logits, last_observed.float(), options, generator)
-        steps = []
-        for start in range(0, options.K, chunk_size):
-            chunk = samples[:, start : start + chunk_size]  # (B, k, n_w, 2)
-            maps = distance_maps(chunk.flatten(1, 2), height, width, max_distance)  # (B, k*n_w, H, W)
-            maps = maps.unflatten(1, chunk.shape[1:3])  # (B, k, n_w, H, W)
-            with torch.autocast(x.device.type, dtype=torch.bfloat16, enabled=bf16):
-                logits = model.predict_trajectory(features, maps)  # (B, k, n_f, H, W)
-            steps.append(softargmax(logits.float()))  # (B, k, n_f, 2)
-        trajectory = torch.cat(steps, dim=1)  # (B, K, n_f, 2)
-    return Prediction(trajectory=trajectory, goals=samples[:, :, -1], waypoints=samples)
+    return predict_encoded(model, encode(model, scene_and_past), last_observed, options, generator,
+                           max_distance, chunk_size, bf16)

@@ -65,9 +65,10 @@ from pipeline.harness import baselines
 from pipeline.harness.baselines.common import select_split, subset
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds
+from pipeline.io import IntermediateError
 from pipeline.preemption import NEVER, Preemption
-from pipeline.runners.ynet_scoring import (predict_scenes, qualitative_examples, sampling_options,
-                                           sdd_scene_image)
+from pipeline.runners.ynet_scoring import (Sampling, predict_samplings, qualitative_examples,
+                                           sampling_options, sdd_scene_image)
 from pipeline.runners.ynet_training import YnetSettings, image_sizes, train
 from ynet.model import YNet
 from ynet.sampling import SamplingOptions
@@ -179,19 +180,20 @@ def load_benchmark(table: pd.DataFrame, dataset: str, n_past: int, n_future: int
 # Scoring
 
 
-def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None]], bench: Benchmark,
-          rounds: int, seed: int, kept: PredictionRounds | None = None) -> dict:
+def score(sample: Callable[[int], tuple[np.ndarray, np.ndarray | None, np.ndarray | None]],
+          bench: Benchmark, rounds: int, seed: int, kept: PredictionRounds | None = None) -> dict:
     """Best-of-K errors in the benchmark's unit over seeded rounds; `kept` (for `bench.test`'s
-    windows) receives each round's paths and goals in that unit, exactly as scored.
+    windows) receives each round's paths, goals and weights in that unit, exactly as scored.
 
-    sample(seed) -> (paths (N, K, n_f, 2), goals (N, K, 2) or None) in original pixels.
+    sample(seed) -> (paths (N, K, n_f, 2), goals (N, K, 2) or None, weights (N, K) or None), paths
+    and goals in original pixels.
     """
     def score_round(round_seed: int):
-        paths, goals = sample(round_seed)
+        paths, goals, weights = sample(round_seed)
         paths = bench.to_unit(paths)  # (N, K, n_f, 2) in bench.unit
         goals = None if goals is None else bench.to_unit(goals)  # (N, K, 2)
         if kept is not None:
-            kept.add(round_seed, paths, goals=goals)
+            kept.add(round_seed, paths, weights=weights, goals=goals)
         return window_errors(paths, bench.truth, goals)
 
     return seeded_rounds(score_round, rounds, seed)
@@ -236,10 +238,10 @@ def ynet_inputs(maps_path: Path, sdd: Path | None, scene_ids: set[str],
         sizes = image_sizes(sdd, scene_ids)
     else:
         sizes = {name: info.image_hw for name, info in ethucy_scenes.items()}
-    classes = {m.shape[0] for m in maps.values()}
-    if len(classes) != 1:
-        raise ValueError(f"{maps_path}: maps of different channel counts {sorted(classes)}")
-    return maps, sizes, classes.pop()
+    if not maps:
+        raise IntermediateError(f"{maps_path}: the index lists no maps")
+    # every map has the index's class count (load_semantic_maps checks each against it)
+    return maps, sizes, next(iter(maps.values())).shape[0]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -277,16 +279,19 @@ def score_ynet(model: YNet, loaded: YnetSettings, scenes: list[SceneWindows], be
     (temperature, rel_threshold, the K lists, rounds, seed, eval_batch_size, eval_chunk_size, bf16)."""
     eval_params = params.eval_params()
     start, results = time.perf_counter(), {}
-    for k in ks:
-        options = ynet_options(params, k)
+    samplings = [Sampling(ynet_options(params, k), params.seed + r)
+                 for k in ks for r in range(params.rounds)]  # all sampled in one pass
+    sampled, _ = predict_samplings(model, scenes, loaded, samplings, eval_params, len(bench.test),
+                                   f"Y-net K_e={'/'.join(map(str, ks))}", loaded.crop,
+                                   loaded.crop_lead_steps)
+    for number, k in enumerate(ks):
+        rounds = sampled[number * params.rounds:(number + 1) * params.rounds]
 
-        def sample(seed: int, options=options) -> tuple[np.ndarray, np.ndarray]:
-            return predict_scenes(model, scenes, loaded, options, seed, eval_params,
-                                  len(bench.test), f"Y-net K_e={options.K_e}", loaded.crop,
-                                  loaded.crop_lead_steps)
+        def sample(seed: int, rounds=rounds) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+            drawn = rounds[seed - params.seed]
+            return drawn.paths, drawn.goals, drawn.weights
 
-        results[k] = score(sample, bench, params.rounds, params.seed,
-                           kept if k == ks[0] else None)
+        results[k] = score(sample, bench, params.rounds, params.seed, kept if number == 0 else None)
     seconds = time.perf_counter() - start
     return results, seconds, {key: getattr(loaded, key) for key in YNET_REPORTED_SETTINGS}
 
@@ -365,8 +370,8 @@ def score_baseline(name: str, bench: Benchmark, folder: Path, ks: list[int], rou
     model = baselines.get(name).load(folder, device)
     start, results = time.perf_counter(), {}
     for k in ks:
-        def sample(seed: int, k=k) -> tuple[np.ndarray, None]:
-            return model.predict(bench.test, k, generator(device, seed)), None
+        def sample(seed: int, k=k) -> tuple[np.ndarray, None, None]:
+            return model.predict(bench.test, k, generator(device, seed)), None, None
 
         results[k] = score(sample, bench, rounds, seed, kept if k == ks[0] else None)
     return results, time.perf_counter() - start

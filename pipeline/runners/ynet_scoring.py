@@ -16,9 +16,9 @@ settings come from its checkpoint (`load_model`), never from params.yaml.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import cv2
@@ -36,7 +36,7 @@ from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.runners.ynet_training import YnetSettings
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
-from ynet.sampling import SamplingOptions, predict
+from ynet.sampling import SamplingOptions, encode, predict, predict_encoded
 from ynet.segmentation import PAD_CLASS
 
 
@@ -70,36 +70,83 @@ def load_for_scoring(path: Path, test: WindowArrays, semantic_maps: dict[str, np
     torch.set_flush_denormal(True)
     return model, settings, group_by_scene(test, semantic_maps, sizes, settings.resize, device)
 
-def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
-                   options: SamplingOptions, seed: int, params: EvalParams,
-                   n_windows: int, desc: str, crop: int = 0,
-                   crop_lead_steps: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Paths (N, K, n_f, 2) and goals (N, K, 2) in original pixels, rows as in the arrays.
+@dataclass(frozen=True)
+class Sampling:
+    """One seeded sampling of every test window: the options and the seed of its generator."""
+
+    options: SamplingOptions
+    seed: int
+
+
+@dataclass(frozen=True)
+class Sampled:
+    """A `Sampling`'s predictions in original pixels, rows as in the arrays, and its own time
+    (drawing goals and waypoints and the trajectory decoder; the shared encoding not included)."""
+
+    paths: np.ndarray  # (N, K, n_f, 2)
+    goals: np.ndarray  # (N, K, 2)
+    weights: np.ndarray | None  # (N, K) `ynet.sampling.Prediction.weights`; None without TTST
+    seconds: float
+
+
+def predict_samplings(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
+                      samplings: list[Sampling], params: EvalParams, n_windows: int, desc: str,
+                      crop: int = 0, crop_lead_steps: float = 0.0) -> tuple[list[Sampled], float]:
+    """Every sampling of `samplings` over all windows in one pass: each batch of windows is encoded
+    once (`ynet.sampling.encode`, seed-independent) and then sampled once per sampling, each with
+    its own generator consumed batch after batch as a pass of its own would (so the numbers are
+    those of separate passes, bit for bit). Returns the `Sampled` of each, in order, and the
+    seconds spent building inputs and encoding (shared by all).
 
     crop > 0 runs the model on a crop x crop window ahead of each agent instead of the whole map
     (`ynet_data.window_inputs`): short-term futures stay near the agent. Runs on the model's device
     (scenes are moved there); on CUDA the trajectory decoder runs in bfloat16.
     """
     device = module_device(model)
-    draws = generator(device, seed)
+    draws = [generator(device, sampling.seed) for sampling in samplings]
     bf16 = params.bf16 or device.type == "cuda"
     n_future = scenes[0].future.shape[1]
-    paths = np.zeros((n_windows, options.K, n_future, 2))
-    goals = np.zeros((n_windows, options.K, 2))
+    paths = [np.zeros((n_windows, s.options.K, n_future, 2)) for s in samplings]
+    goals = [np.zeros((n_windows, s.options.K, 2)) for s in samplings]
+    weights = [np.full((n_windows, s.options.K), np.nan) if s.options.use_ttst else None
+               for s in samplings]
+    seconds = [0.0] * len(samplings)
+    shared_seconds = 0.0
     with tqdm(total=n_windows, desc=desc, leave=False, disable=None) as progress:
         for scene in scenes:
             scene = scene.to(device)  # a no-op for scenes grouped on the model's device
             for start in range(0, len(scene), params.batch_size):
+                began = time.perf_counter()
                 past = scene.past[start:start + params.batch_size]
                 inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
                                                crop, PAD_CLASS, crop_lead_steps)  # origin (B, 2)
-                out = predict(model, inputs, past[:, -1] - origin, options, draws,
-                              settings.max_distance, params.chunk_size, bf16)
+                encoded = encode(model, inputs)
+                last_observed = past[:, -1] - origin
                 rows = scene.index[start:start + params.batch_size]
-                paths[rows] = (out.trajectory + origin[:, None, None]).cpu().numpy() / settings.resize
-                goals[rows] = (out.goals + origin[:, None]).cpu().numpy() / settings.resize
+                shared_seconds += time.perf_counter() - began
+                for i, sampling in enumerate(samplings):
+                    began = time.perf_counter()
+                    out = predict_encoded(model, encoded, last_observed, sampling.options,
+                                          draws[i], settings.max_distance, params.chunk_size, bf16)
+                    paths[i][rows] = ((out.trajectory + origin[:, None, None]).cpu().numpy()
+                                      / settings.resize)
+                    goals[i][rows] = (out.goals + origin[:, None]).cpu().numpy() / settings.resize
+                    if weights[i] is not None:
+                        weights[i][rows] = out.weights.cpu().numpy()
+                    seconds[i] += time.perf_counter() - began
                 progress.update(len(rows))
-    return paths, goals
+    return [Sampled(*out) for out in zip(paths, goals, weights, seconds)], shared_seconds
+
+
+def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
+                   options: SamplingOptions, seed: int, params: EvalParams,
+                   n_windows: int, desc: str, crop: int = 0,
+                   crop_lead_steps: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Paths (N, K, n_f, 2) and goals (N, K, 2) in original pixels of one seeded sampling
+    (`predict_samplings` of one)."""
+    (sampled,), _ = predict_samplings(model, scenes, settings, [Sampling(options, seed)], params,
+                                      n_windows, desc, crop, crop_lead_steps)
+    return sampled.paths, sampled.goals
 
 
 def prediction_metadata(table: Path, options: SamplingOptions | None = None,
@@ -111,7 +158,7 @@ def prediction_metadata(table: Path, options: SamplingOptions | None = None,
                 "split": "test", "window_table": str(table)}
     if options is not None:
         metadata.update(k=options.K, k_e=options.K_e, k_a=options.K_a,
-                        sampling=dataclasses.asdict(options), checkpoint=str(checkpoint))
+                        sampling=asdict(options), checkpoint=str(checkpoint))
     return metadata
 
 
@@ -123,20 +170,52 @@ def rounds_result(record: dict, options: SamplingOptions) -> dict:
             "per_round": record["per_round"]}
 
 
+@dataclass(frozen=True)
+class Setting:
+    """One scored setting: sampling options over `rounds` seeded rounds (seed `params.seed + r`)."""
+
+    name: str
+    options: SamplingOptions
+    rounds: int
+
+
+def evaluate_settings(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
+                      scored: list[Setting], params: EvalParams, truth: np.ndarray, desc: str,
+                      kept: PredictionRounds | None = None) -> tuple[dict[str, dict], dict[str, float]]:
+    """Every setting of `scored` over its seeded rounds, all sampled in one pass over the windows
+    (`predict_samplings`): ({name: `rounds_result`}, {name: seconds}), where a setting's seconds are
+    the shared encoding plus its own sampling, what it would take alone. `kept` (for the windows of
+    `truth`, in its order) receives the first setting's rounds, paths, goals (original pixels) and
+    weights (TTST's goal masses, `ynet.sampling.goal_masses`) exactly as scored."""
+    samplings = [Sampling(setting.options, params.seed + r)
+                 for setting in scored for r in range(setting.rounds)]
+    sampled, shared_seconds = predict_samplings(model, scenes, settings, samplings, params,
+                                                len(truth), f"{desc} ({len(samplings)} samplings)")
+    results, seconds, first = {}, {}, 0
+    for number, setting in enumerate(scored):
+        rounds = sampled[first:first + setting.rounds]
+        first += setting.rounds
+        if number == 0 and kept is not None:
+            for r, drawn in enumerate(rounds):
+                kept.add(params.seed + r, drawn.paths, weights=drawn.weights, goals=drawn.goals)
+
+        def score_round(seed: int, rounds=rounds):
+            drawn = rounds[seed - params.seed]
+            return window_errors(drawn.paths, truth, drawn.goals)
+
+        results[setting.name] = rounds_result(seeded_rounds(score_round, setting.rounds, params.seed),
+                                              setting.options)
+        seconds[setting.name] = shared_seconds + sum(drawn.seconds for drawn in rounds)
+    return results, seconds
+
+
 def evaluate(model, scenes, settings, options, params, truth, rounds, desc,
              kept: PredictionRounds | None = None) -> dict:
-    """`options` scored over seeded rounds (seed `params.seed + r`), in the `rounds_result` layout.
-    `kept` (for the windows of `truth`, in its order) receives each round's paths and goals in
-    original pixels, exactly as scored. No weights: TTST's goals are k-means centres (goal 0 the
-    softargmax), and `ynet.sampling.predict` returns no cluster masses."""
-    def score_round(seed: int):
-        paths, goals = predict_scenes(model, scenes, settings, options, seed, params, len(truth),
-                                      f"{desc} round {seed - params.seed + 1}/{rounds}")
-        if kept is not None:
-            kept.add(seed, paths, goals=goals)
-        return window_errors(paths, truth, goals)
-
-    return rounds_result(seeded_rounds(score_round, rounds, params.seed), options)
+    """`options` scored over seeded rounds (seed `params.seed + r`), in the `rounds_result` layout
+    (`evaluate_settings` of one setting; `kept` receives its rounds)."""
+    results, _ = evaluate_settings(model, scenes, settings, [Setting("scored", options, rounds)],
+                                   params, truth, desc, kept)
+    return results["scored"]
 
 
 def in_scene_frame(heatmap: torch.Tensor, origin: tuple[int, int], height: int,
@@ -224,36 +303,38 @@ def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetS
     rounds) and the K_e x K_a grid (one round per cell, seed `params.seed`; skipped when
     `ka_grid_k_e` is empty). The grid cell of the main setting is the main result's first round,
     taken from it rather than sampled again (same seed, same options: the same numbers).
-    `label` prefixes the progress bars; `after_main(partial result)` runs once the main result is in.
-    `kept` receives the main result's rounds (`evaluate`), nothing of the ablation or the grid.
+    All settings are sampled in one pass over the windows, each window encoded once
+    (`evaluate_settings`); `main_seconds` is what the main setting alone takes (encoding included).
+    `label` prefixes the progress bar; `after_main(partial result)` runs once the main result is in.
+    `kept` receives the main result's rounds, nothing of the ablation or the grid.
     """
     start = time.perf_counter()
 
-    def run(k_e: int, k_a: int, use_ttst: bool, use_cws: bool, rounds: int, desc: str,
-            keep: PredictionRounds | None = None) -> dict:
-        options = sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
-        return evaluate(model, scenes, settings, options, params, truth, rounds, f"{label}{desc}",
-                        keep)
+    def options(k_e: int, k_a: int, use_ttst: bool = True, use_cws: bool = True) -> SamplingOptions:
+        return sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
 
-    def grid_cell(k_e: int, k_a: int) -> dict:
-        """One round; the main setting's cell is the main result's first round (same seed)."""
-        if (k_e, k_a) == (params.k_e, params.k_a):
-            return rounds_result(rounds_record(result["main"]["per_round"][:1]),
-                                 sampling_options(k_e, k_a, ttst, cws, True, True))
-        return run(k_e, k_a, True, True, 1, f"K_e={k_e} K_a={k_a}")
-
-    result = {"main": run(params.k_e, params.k_a, True, True, params.rounds, "TTST+CWS", kept)}
-    result["main_seconds"] = time.perf_counter() - start
+    main = (params.k_e, params.k_a)
+    scored = [Setting("main", options(*main), params.rounds)]
+    ablation = extras and params.ablation_rounds > 0
+    if ablation:
+        scored += [Setting("none", options(*main, False, False), params.ablation_rounds),
+                   Setting("cws", options(*main, False, True), params.ablation_rounds)]
+    grid = [(k_e, k_a) for k_e in params.ka_grid_k_e for k_a in params.ka_grid_k_a] if extras else []
+    scored += [Setting(f"K_e={k_e} K_a={k_a}", options(k_e, k_a), 1) for k_e, k_a in grid
+               if (k_e, k_a) != main]
+    results, seconds = evaluate_settings(model, scenes, settings, scored, params, truth,
+                                         f"{label}TTST+CWS", kept)
+    result = {"main": results["main"], "main_seconds": seconds["main"]}
     if after_main is not None:
         after_main(result)
-    if extras and params.ablation_rounds:
-        result["ablation"] = {"ttst_cws": result["main"]}
-        for name, use_ttst, use_cws in (("none", False, False), ("cws", False, True)):
-            result["ablation"][name] = run(params.k_e, params.k_a, use_ttst, use_cws,
-                                           params.ablation_rounds, name)
-    if extras and params.ka_grid_k_e:
-        result["ka_grid"] = [grid_cell(k_e, k_a) for k_e in params.ka_grid_k_e
-                             for k_a in params.ka_grid_k_a]
+    if ablation:
+        result["ablation"] = {"ttst_cws": result["main"], "none": results["none"],
+                              "cws": results["cws"]}
+    if grid:
+        main_first_round = rounds_result(rounds_record(result["main"]["per_round"][:1]),
+                                         options(*main))
+        result["ka_grid"] = [main_first_round if cell == main else results[f"K_e={cell[0]} K_a={cell[1]}"]
+                             for cell in grid]
     result["eval_seconds"] = time.perf_counter() - start
     return result
 

@@ -1,0 +1,110 @@
+"""Seconds of `evaluate_ynet`'s scoring: every setting in its own pass over the test windows (the
+encoder and goal decoder re-run for each round, ablation row and K_a grid cell) beside one pass
+that encodes each batch once and samples it for every setting (`ynet_scoring.predict_samplings`),
+same machine, same run. Also checks that both give the same numbers, bit for bit.
+
+Not a test: prints numbers. Uses the real test windows (`data/windows/release_tf30.parquet`), the
+semantic maps (`data/semantic_maps`) and the trained model (`data/ynet/model.pt`), `--windows`
+test windows evenly spaced over the table's order, the active profile's `eval` section and `ttst` /
+`cws`: the settings `evaluation_sequence` samples (main rounds, ablation, K_e x K_a grid).
+
+    python bench/bench_evaluation_pass.py [--windows 24] [--threads 2]
+
+It re-executes itself with glibc malloc told to keep freed memory, as the stages run (see
+bench/bench_ynet.py). The machine may be shared: the load average is printed with the times.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench.bench_ynet import keep_freed_memory  # noqa: E402
+from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
+                             load_section, read_params)
+from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
+from pipeline.data.window_table import to_arrays  # noqa: E402
+from pipeline.runners.ynet_scoring import (Sampling, load_for_scoring,  # noqa: E402
+                                           predict_samplings, sampling_options)
+from pipeline.runners.ynet_training import image_sizes  # noqa: E402
+
+WINDOWS = Path("data/windows/release_tf30.parquet")
+MAPS = Path("data/semantic_maps")
+MODEL = Path("data/ynet/model.pt")
+SDD = Path("data/raw/sdd")
+
+
+def sequence_samplings(params: EvalParams, ttst: TtstParams, cws: CwsParams) -> list[Sampling]:
+    """The samplings `evaluation_sequence` scores: main rounds, ablation rows, the other grid cells."""
+    def options(k_e, k_a, use_ttst=True, use_cws=True):
+        return sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
+
+    main = (params.k_e, params.k_a)
+    samplings = [Sampling(options(*main), params.seed + r) for r in range(params.rounds)]
+    for use_ttst, use_cws in ((False, False), (False, True)):
+        samplings += [Sampling(options(*main, use_ttst, use_cws), params.seed + r)
+                      for r in range(params.ablation_rounds)]
+    samplings += [Sampling(options(k_e, k_a), params.seed) for k_e in params.ka_grid_k_e
+                  for k_a in params.ka_grid_k_a if (k_e, k_a) != main]
+    return samplings
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--windows", type=int, default=24, help="test windows timed")
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    keep_freed_memory()
+    missing = [p for p in (WINDOWS, MAPS, MODEL, SDD) if not p.exists()]
+    if missing:
+        sys.exit(f"bench_evaluation_pass: missing {', '.join(map(str, missing))} "
+                 "(dvc repro train_ynet first)")
+    params = read_params()
+    evaluation = load_profile(EvalParams, "eval", params)
+    ttst, cws = load_section(TtstParams, "ttst", params), load_section(CwsParams, "cws", params)
+    table = pd.read_parquet(WINDOWS)
+    table = table[table["split"] == "test"]
+    ids = table["window_id"].unique()
+    ids = ids[np.unique(np.linspace(0, len(ids) - 1, min(args.windows, len(ids))).astype(int))]
+    test = to_arrays(table[table["window_id"].isin(ids)], params["windows"]["n_past"])
+    model, settings, scenes = load_for_scoring(MODEL, test, load_semantic_maps(MAPS),
+                                               image_sizes(SDD, set(test.scene_id)))
+    torch.set_num_threads(args.threads)  # after load_for_scoring, which sets the training's
+    samplings = sequence_samplings(evaluation, ttst, cws)
+    n = len(test)
+    warm = [scenes[0].subset(np.arange(1))]
+    predict_samplings(model, warm, settings, samplings[:1], evaluation, n, "warm-up")
+
+    start = time.perf_counter()
+    separate = [predict_samplings(model, scenes, settings, [s], evaluation, n, "separate")[0][0]
+                for s in samplings]
+    separate_s = time.perf_counter() - start
+    start = time.perf_counter()
+    together, shared_s = predict_samplings(model, scenes, settings, samplings, evaluation, n, "one")
+    together_s = time.perf_counter() - start
+    identical = all(np.array_equal(a.paths, b.paths) and np.array_equal(a.goals, b.goals)
+                    for a, b in zip(separate, together))
+
+    samples = sum(s.options.K for s in samplings)
+    print(f"torch {torch.__version__}, {args.threads} threads, load average "
+          + " ".join(f"{v:.2f}" for v in os.getloadavg()))
+    print(f"{n} test windows of {len(set(test.scene_id))} scenes, profile {params['profile']}: "
+          f"{len(samplings)} samplings, {samples} samples per window")
+    print(f"{'scoring':34s} {'s per window':>12s}")
+    print(f"{'a pass per setting (before)':34s} {separate_s / n:12.3f}")
+    print(f"{'one pass, each batch encoded once':34s} {together_s / n:12.3f}"
+          f"   ({separate_s / together_s:.2f}x; encoding {shared_s / n:.3f} s of it)")
+    print(f"identical predictions: {identical}")
+
+
+if __name__ == "__main__":
+    main()
