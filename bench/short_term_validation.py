@@ -48,7 +48,7 @@ def load_from_arguments(args: argparse.Namespace, bench: str) -> TrainedOnValida
     checkpoint = args.checkpoint or Path(f"checkpoints/short_term/{args.dataset}_ynet/best.pt")
     if not checkpoint.exists():
         print(f"{bench}: no checkpoint at {checkpoint}; run "
-              f"`dvc repro short_term_ynet@{args.dataset}` first")
+              f"`dvc repro train_short_term_ynet@{args.dataset}` first")
         return None
     return load(args.dataset, checkpoint, args.windows, args.sdd, args.windows_sample)
 

@@ -38,27 +38,51 @@ def test_a_run_updates_the_stages_it_ran_and_keeps_the_others():
                                 "tracks": {"seconds": 30.5, "run_started": "now"},
                                 "windows@30": {"seconds": 60.0, "run_started": "now"}}
     assert merged["last_run"] == run and list(merged["stages"]) == sorted(merged["stages"])
+    # a stage dvc.yaml no longer defines loses its old time
+    current = timed_repro.merged_times(previous, {"tracks": 30.5}, run, current={"tracks"})
+    assert current["stages"] == {"tracks": {"seconds": 30.5, "run_started": "now"}}
 
 
 def test_main_writes_the_times_and_renders_the_report_again(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     calls = []
 
-    def fake_dvc(args):
+    def fake_dvc(args, on_stage_done=None):
         calls.append(args)
         assert (tmp_path / timed_repro.STAGE_TIMES).exists()  # in place before the report runs
         return 0, DVC_OUTPUT[:7] if args == ["repro"] else []
 
     monkeypatch.setattr(timed_repro, "run_dvc", fake_dvc)
+    monkeypatch.setattr(timed_repro, "current_stages", lambda: {"tracks", "windows@30"})
     assert timed_repro.main([]) == 0
     record = json.loads((tmp_path / timed_repro.STAGE_TIMES).read_text())
     assert set(record["stages"]) == {"tracks", "windows@30"}
     assert record["last_run"]["stages_run"] == ["tracks", "windows@30"]
     assert calls == [["repro"], ["repro", "report"]]
     calls.clear()
-    monkeypatch.setattr(timed_repro, "run_dvc", lambda args: (0, DVC_OUTPUT[:1]))  # nothing ran
+    monkeypatch.setattr(timed_repro, "run_dvc", lambda args, on_stage_done=None: (0, DVC_OUTPUT[:1]))  # nothing ran
     assert timed_repro.main([]) == 0
     assert json.loads((tmp_path / timed_repro.STAGE_TIMES).read_text()) == record
+
+
+def test_a_run_stopped_midway_keeps_the_stages_it_finished(tmp_path, monkeypatch):
+    """The file is written after every stage: killed during train_ynet, tracks and windows@30 stay
+    clocked, and the run says it never saw dvc exit."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(timed_repro, "current_stages", lambda: {"tracks", "windows@30", "train_ynet"})
+
+    def killed_dvc(args, on_stage_done=None):
+        for end in (5, 7):  # the lines up to each lock update, as dvc prints them
+            on_stage_done(DVC_OUTPUT[:end])
+        raise KeyboardInterrupt  # the session ends here
+
+    monkeypatch.setattr(timed_repro, "run_dvc", killed_dvc)
+    with pytest.raises(KeyboardInterrupt):
+        timed_repro.main([])
+    record = json.loads((tmp_path / timed_repro.STAGE_TIMES).read_text())
+    assert record["stages"] == {"tracks": {"seconds": 30.5, "run_started": record["last_run"]["started"]},
+                                "windows@30": {"seconds": 60.0, "run_started": record["last_run"]["started"]}}
+    assert record["last_run"]["exit_code"] is None
 
 
 def test_the_report_lists_stages_longest_first_with_their_share(tmp_path):
@@ -79,3 +103,10 @@ def test_the_report_says_why_there_are_no_stage_times(tmp_path, content, kind):
         path.write_text(content)
     absent = stage_profile(path)
     assert isinstance(absent, Absent) and absent.kind == kind and "stage_times.json" in absent.reason
+
+
+def test_current_stages_are_those_dvc_yaml_defines(monkeypatch):
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    names = timed_repro.current_stages()
+    assert {"report", "evaluate_ynet", "train_baseline@sgan-30"} <= names
+    assert not any(name.startswith("evaluate_constant_velocity") for name in names)  # dropped

@@ -4,8 +4,10 @@
 echoes dvc's output as it comes, and stamps each line with the time it arrived: a stage's wall time
 runs from dvc's "Running stage '<name>':" to its "Updating lock file" (the command plus dvc's
 hashing of the outputs). The times go to `reports/stage_times.json`, merged with those already
-there (a stage that did not run keeps the time of its last run), with a record of this run: when,
-how long in all, which stages ran, on how many cores. If any stage ran, the report is rendered once
+there (a stage that did not run keeps the time of its last run; a stage dvc.yaml no longer defines
+loses it), with a record of this run: when, how long in all, which stages ran, on how many cores.
+The file is written after every stage, so a run stopped midway (exit_code null) keeps the times of
+the stages it finished. If any stage ran, the report is rendered once
 more, so its provenance section shows this run's times (the report stage reads the file).
 
     python tools/timed_repro.py [dvc repro arguments...]
@@ -20,7 +22,7 @@ import re
 import subprocess
 import sys
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -46,17 +48,29 @@ def stage_seconds(stamped_lines: Iterable[tuple[float, str]]) -> dict[str, float
     return seconds
 
 
-def merged_times(previous: dict, ran: dict[str, float], run: dict) -> dict:
+def merged_times(previous: dict, ran: dict[str, float], run: dict,
+                 current: set[str] | None = None) -> dict:
     """`previous` (the file's content, or {}) updated with this run: each stage that ran gets its
-    new time and the run's start; the others keep theirs."""
-    stages = dict(previous.get("stages") or {})
+    new time and the run's start; the others keep theirs, except those not among `current` (the
+    stages dvc.yaml defines now, when given): a renamed or dropped stage's old time goes."""
+    stages = {name: entry for name, entry in (previous.get("stages") or {}).items()
+              if current is None or name in current}
     for name, seconds in ran.items():
         stages[name] = {"seconds": round(seconds, 1), "run_started": run["started"]}
     return {"stages": dict(sorted(stages.items())), "last_run": run}
 
 
-def run_dvc(args: list[str]) -> tuple[int, list[tuple[float, str]]]:
-    """`dvc <args>`, its output echoed and stamped line by line; (exit code, stamped lines)."""
+def current_stages() -> set[str]:
+    """The names of the stages dvc.yaml defines now (foreach items as `stage@item`)."""
+    from dvc.repo import Repo  # here: the clock tool itself needs no dvc import to be tested
+
+    return {stage.addressing for stage in Repo().index.stages}
+
+
+def run_dvc(args: list[str], on_stage_done: Callable[[list[tuple[float, str]]], None] | None = None
+            ) -> tuple[int, list[tuple[float, str]]]:
+    """`dvc <args>`, its output echoed and stamped line by line; (exit code, stamped lines).
+    `on_stage_done(stamped lines so far)` runs after each lock update (a stage finished)."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}  # dvc's own lines must arrive when printed
     stamped = []
     with subprocess.Popen(["dvc", *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -65,6 +79,8 @@ def run_dvc(args: list[str]) -> tuple[int, list[tuple[float, str]]]:
             stamped.append((time.monotonic(), line))
             sys.stdout.write(line)
             sys.stdout.flush()
+            if on_stage_done is not None and line.startswith(DONE):
+                on_stage_done(stamped)
     return process.returncode, stamped
 
 
@@ -74,16 +90,25 @@ def main(argv: list[str] | None = None) -> int:
     clock = time.monotonic()
     if not STAGE_TIMES.exists():  # the report stage reads it: a first run needs it in place
         write_json({"stages": {}, "last_run": None}, STAGE_TIMES)
-    code, stamped = run_dvc(["repro", *args])
-    ran = stage_seconds(stamped)
+    previous = json.loads(STAGE_TIMES.read_text())
+    current = current_stages()
+
+    def record(stamped: list[tuple[float, str]], code: int | None) -> dict[str, float]:
+        """Write the times so far; a run stopped before dvc exits keeps exit_code None."""
+        ran = stage_seconds(stamped)
+        if ran:
+            run = {"started": started.strftime("%Y-%m-%d %H:%M:%S UTC"),
+                   "seconds": round(time.monotonic() - clock, 1),
+                   "command": " ".join(["dvc", "repro", *args]), "exit_code": code,
+                   "stages_run": sorted(ran), "cpu_count": os.cpu_count()}
+            write_json(merged_times(previous, ran, run, current), STAGE_TIMES)
+        return ran
+
+    code, stamped = run_dvc(["repro", *args], lambda lines: record(lines, None))
+    ran = record(stamped, code)
     if not ran:
         return code
-    run = {"started": started.strftime("%Y-%m-%d %H:%M:%S UTC"),
-           "seconds": round(time.monotonic() - clock, 1), "command": " ".join(["dvc", "repro", *args]),
-           "exit_code": code, "stages_run": sorted(ran), "cpu_count": os.cpu_count()}
-    previous = json.loads(STAGE_TIMES.read_text()) if STAGE_TIMES.exists() else {}
-    write_json(merged_times(previous, ran, run), STAGE_TIMES)
-    print(f"timed_repro: {len(ran)} stages in {run['seconds']:.0f} s; times in {STAGE_TIMES}")
+    print(f"timed_repro: {len(ran)} stages in {time.monotonic() - clock:.0f} s; times in {STAGE_TIMES}")
     if code == 0:  # the page shows the times of the run that just ended
         code, _ = run_dvc(["repro", "report"])
     return code

@@ -1,0 +1,98 @@
+"""Where a short-term Y-net scoring second goes, and what the scoring batch size does to it.
+
+Not a test: prints numbers. Takes a trained `train_short_term_ynet@<dataset>` checkpoint and a
+fixed seeded sample of that benchmark's *validation* windows (never the test set), samples them as
+`evaluate_short_term_ynet` does (TTST at K_e = `--k`, no CWS, the profile's chunking and bf16,
+`ynet_scoring.predict_samplings`) and prints:
+
+- seconds per window at each `--batch-sizes` (windows of one scene encoded and sampled together);
+- at the profile's `eval_batch_size`, the share of the time in each step (cProfile, cumulative
+  seconds of the functions named below; the profiler's own overhead inflates the many small calls).
+
+    python bench/bench_short_term_scoring.py --dataset univ --windows-sample 400 --batch-sizes 4 16 64
+
+(ETH/UCY's univ alone has 24,334 test windows: its scoring dominates the short-term stages.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import os
+import pstats
+import time
+from dataclasses import replace
+
+import short_term_validation  # bench/: run as `python bench/bench_short_term_scoring.py`
+from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options
+
+STEPS = {  # printed name: function name in the profile (file suffix, function)
+    "input crops and distance maps": ("ynet_data.py", "window_inputs"),
+    "encoder + goal decoder": ("sampling.py", "encode"),
+    "TTST draws": ("sampling.py", "sample_positions"),
+    "TTST k-means": ("sampling.py", "kmeans"),
+    "goal masses": ("sampling.py", "goal_masses"),
+    "distance maps (past, waypoints)": ("heatmaps.py", "distance_maps"),
+    "trajectory decoder": ("model.py", "predict_trajectory"),
+    "softargmax": ("sampling.py", "softargmax"),
+}
+
+
+def cumulative_seconds(stats: pstats.Stats) -> dict[str, float]:
+    """Cumulative seconds of each of STEPS' functions (summed over same-named entries)."""
+    found = dict.fromkeys(STEPS, 0.0)
+    for (filename, _, function), (_, _, _, cumulative, _) in stats.stats.items():
+        for step, (suffix, name) in STEPS.items():
+            if function == name and filename.endswith(suffix):
+                found[step] += cumulative
+    return found
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    short_term_validation.add_arguments(parser)
+    parser.add_argument("--k", type=int, default=20)
+    parser.add_argument("--batch-sizes", type=int, nargs="+", default=[4, 16, 64])
+    args = parser.parse_args()
+    trained = short_term_validation.load_from_arguments(args, "bench_short_term_scoring")
+    if trained is None:
+        return
+    model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
+                                            trained.val, trained.scenes)
+    ttst = TtstParams(temperature=settings.temperature, rel_threshold=settings.rel_threshold)
+    sampling = Sampling(sampling_options(args.k, 1, ttst, CwsParams(), use_ttst=True,
+                                         use_cws=False), settings.seed)
+    configured = EvalParams(k_e=args.k, rounds=1, seed=settings.seed,
+                            batch_size=settings.eval_batch_size,
+                            chunk_size=settings.eval_chunk_size, bf16=settings.bf16)
+
+    def score(params: EvalParams) -> float:
+        start = time.perf_counter()
+        predict_samplings(model, scenes, loaded, [sampling], params, len(val), "bench",
+                          loaded.crop, loaded.crop_lead_steps)
+        return (time.perf_counter() - start) / len(val)
+
+    print(f"{args.dataset}: {len(val)} val windows of {len(scenes)} scenes, K_e = {args.k}, crop "
+          f"{loaded.crop}, chunk {configured.chunk_size}, bf16 {configured.bf16}, load average "
+          + " ".join(f"{v:.2f}" for v in os.getloadavg()))
+    score(configured)  # warm-up
+    print(f"{'batch':>5s} {'ms per window':>14s}")
+    for batch_size in args.batch_sizes:
+        print(f"{batch_size:5d} {1000 * score(replace(configured, batch_size=batch_size)):14.1f}")
+
+    profiler = cProfile.Profile()
+    profiler.enable()
+    score(configured)
+    profiler.disable()
+    stats = pstats.Stats(profiler)
+    total = stats.total_tt
+    print(f"\nat batch {configured.batch_size}, under cProfile ({1000 * total / len(val):.1f} ms per "
+          "window with its overhead):")
+    for step, seconds in cumulative_seconds(stats).items():
+        print(f"  {step:32s} {1000 * seconds / len(val):7.2f} ms per window  "
+              f"{100 * seconds / total:5.1f}%")
+
+
+if __name__ == "__main__":
+    main()
