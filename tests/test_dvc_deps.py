@@ -14,6 +14,7 @@ import shlex
 from pathlib import Path
 
 import pytest
+import yaml
 from dvc.repo import Repo
 
 from tools.code_graph import REPO, code_closure, module_name
@@ -96,3 +97,10 @@ def test_a_registered_models_imports_become_its_stages_deps(tmp_path):
     assert set(deps[:-2]) == set(code_closure("pipeline.stages.predict_model")) | imported
     params.write_text("models: {}\n")  # nothing registered: the stage's own imports only
     assert set(synced_deps(body, params)[:-2]) == set(code_closure("pipeline.stages.predict_model"))
+
+
+def test_every_locked_stage_is_a_stage_of_dvc_yaml():
+    """dvc.lock keeps an entry until someone removes it: a stage renamed or dropped from dvc.yaml
+    leaves a stale record (and stale provenance in the report) behind."""
+    locked = set(yaml.safe_load((REPO / "dvc.lock").read_text())["stages"])
+    assert locked - {s.addressing for s in STAGES} == set()
