@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_crop.py`
-from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.config import CwsParams, TtstParams
 from pipeline.runners.ynet_scoring import predict_scenes, sampling_options
 from pipeline.harness.metrics import window_errors
 
@@ -45,9 +45,7 @@ def main() -> None:
                                             trained.val, trained.scenes)
     ttst = TtstParams(temperature=settings.temperature, rel_threshold=settings.rel_threshold)
     options = sampling_options(args.k, 1, ttst, CwsParams(), use_ttst=True, use_cws=False)
-    eval_params = EvalParams(k_e=args.k, rounds=1, seed=settings.seed,
-                             batch_size=settings.eval_batch_size, chunk_size=settings.eval_chunk_size,
-                             bf16=settings.bf16)
+    eval_params = settings.eval_params()  # batch, chunk and bf16 as the stage scores
     print(f"{args.dataset}: {len(val)} val windows, K_e = {args.k}, resize {loaded.resize:.4f}, "
           f"trained on crop {loaded.crop}, lead {loaded.crop_lead_steps} steps, load average "
           + " ".join(f"{v:.2f}" for v in os.getloadavg()))

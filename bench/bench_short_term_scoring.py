@@ -63,9 +63,7 @@ def main() -> None:
     ttst = TtstParams(temperature=settings.temperature, rel_threshold=settings.rel_threshold)
     sampling = Sampling(sampling_options(args.k, 1, ttst, CwsParams(), use_ttst=True,
                                          use_cws=False), settings.seed)
-    configured = EvalParams(k_e=args.k, rounds=1, seed=settings.seed,
-                            batch_size=settings.eval_batch_size,
-                            chunk_size=settings.eval_chunk_size, bf16=settings.bf16)
+    configured = settings.eval_params()  # batch, chunk and bf16 as the stage scores
 
     def score(params: EvalParams) -> float:
         start = time.perf_counter()
