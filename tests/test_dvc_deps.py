@@ -1,11 +1,13 @@
 """Every stage declares what it runs and reads, so `dvc repro` re-runs it when any of that changes.
 
-Code: the project modules a stage's `python -m pipeline.stages.<stage>` imports, followed through every
-import inside `pipeline` and `ynet` (a package's `__init__.py` counts when it holds code), must all
-be in the stage's `deps`; so must whatever a code file listed as a dep imports (a registered
-model's file, which its stages load by name: `pipeline/models/<name>.py`). Files: every path on the command line must be a declared dep or output
-(or lie inside one, or be the folder of declared outputs), except `dvc.lock`, which the report reads for its provenance and which
-cannot be a dep of a stage it records.
+Code: a stage's code is every project file its `python -m pipeline.stages.<stage>` reaches through
+its imports inside `pipeline` and `ynet` (`pipeline.code_graph.code_closure`). Stage
+`code_fingerprints` hashes that closure into `data/code_fingerprints/stages/<stage>.json` (and a
+registered model's, which `fit_model` / `predict_model` load by name, into `models/<name>.json`);
+each stage declares its fingerprint as its code dep and lists no code file itself. Files: every
+path on the command line must be a declared dep or output (or lie inside one, or be the folder of
+declared outputs), except `dvc.lock`, which the report reads for its provenance and which cannot be
+a dep of a stage it records.
 """
 
 from __future__ import annotations
@@ -17,7 +19,8 @@ import pytest
 import yaml
 from dvc.repo import Repo
 
-from tools.code_graph import REPO, code_closure, module_name
+from pipeline.code_graph import PACKAGES, REPO, code_closure, entry_points, fingerprint
+from pipeline.stages import code_fingerprints
 
 NOT_A_DEP = {"dvc.lock"}  # read by `report` for provenance; a dep on it could never be up to date
 
@@ -44,17 +47,81 @@ def is_code(path: str) -> bool:
     return path.endswith(".py") and path.split("/")[0] in ("pipeline", "ynet")
 
 
+FINGERPRINTS = "data/code_fingerprints"
+
+
+def wanted_fingerprints(cmd: str) -> list[str]:
+    """The fingerprint files a stage running `cmd` must declare: its module's, and the registered
+    model's it loads by name (`--model <name>` of a file `pipeline/models/<name>.py`)."""
+    tokens = shlex.split(cmd)
+    wanted = [f"{FINGERPRINTS}/stages/{stage_module(cmd).rpartition('.')[2]}.json"]
+    if "--model" in tokens:
+        name = tokens[tokens.index("--model") + 1]
+        if (REPO / "pipeline" / "models" / f"{name}.py").is_file():
+            wanted.append(f"{FINGERPRINTS}/models/{name}.json")
+    return wanted
+
+
 @pytest.mark.parametrize("stage", STAGES, ids=lambda s: s.addressing)
-def test_stage_declares_the_code_it_imports(stage):
+def test_stage_declares_the_fingerprint_of_the_code_it_runs(stage):
     module = stage_module(stage.cmd)
     assert module, f"{stage.addressing}: command is not `python -m <module>`: {stage.cmd}"
     deps = [d.def_path for d in stage.deps]
-    needed = set(code_closure(module))
-    for dep in filter(is_code, deps):  # a code dep brings what it imports
-        assert (REPO / dep).is_file(), f"{stage.addressing}: code dep {dep} does not exist"
-        needed |= code_closure(module_name(REPO / dep))
-    missing = sorted(f for f in needed if f not in deps)
-    assert not missing, f"{stage.addressing} imports {missing} but dvc.yaml does not list them"
+    if stage.addressing == "code_fingerprints":
+        assert sorted(deps) == sorted(PACKAGES), "code_fingerprints must hash every project package"
+        return
+    missing = [f for f in wanted_fingerprints(stage.cmd) if f not in deps]
+    assert not missing, f"{stage.addressing} runs code it does not declare: add {missing}"
+    listed = [d for d in deps if is_code(d)]
+    assert not listed, f"{stage.addressing} lists code files {listed}: its fingerprint covers them"
+
+
+def test_every_module_a_stage_runs_is_fingerprinted():
+    """What the stages declare is what code_fingerprints writes, and nothing it writes is unused."""
+    declared = {d.def_path for s in STAGES for d in s.deps if d.def_path.startswith(FINGERPRINTS + "/")}
+    written = {f"{FINGERPRINTS}/{name}.json" for name in entry_points(REPO)}
+    assert declared == written
+
+
+def test_a_fingerprint_changes_exactly_when_code_the_module_reaches_changes(tmp_path):
+    """On a small tree: editing an imported file changes the importer's fingerprint, editing a file
+    it does not reach leaves it byte-identical, and the stage writes one file per entry point."""
+    root = tmp_path / "repo"
+    for path, text in {
+        "pipeline/__init__.py": "",
+        "pipeline/helper.py": "X = 1\n",
+        "pipeline/other.py": "Y = 2\n",
+        "pipeline/stages/__init__.py": "",
+        "pipeline/stages/alpha.py": "from pipeline.helper import X\n",
+        "pipeline/stages/beta.py": "from pipeline import other\n",
+        "pipeline/models/__init__.py": "",
+        "pipeline/models/mine.py": "import pipeline.helper\n",
+    }.items():
+        (root / path).parent.mkdir(parents=True, exist_ok=True)
+        (root / path).write_text(text)
+    assert entry_points(root) == {"stages/alpha": "pipeline.stages.alpha",
+                                  "stages/beta": "pipeline.stages.beta",
+                                  "models/mine": "pipeline.models.mine"}
+    before = fingerprint("pipeline.stages.alpha", root)
+    assert set(before) == {"pipeline/helper.py", "pipeline/stages/alpha.py"}
+    beta = fingerprint("pipeline.stages.beta", root)
+    code_closure.cache_clear()  # the closure is cached per (module, root); files change below
+    (root / "pipeline/other.py").write_text("Y = 3\n")
+    assert fingerprint("pipeline.stages.alpha", root) == before
+    assert fingerprint("pipeline.stages.beta", root) != beta
+    (root / "pipeline/helper.py").write_text("X = 2\n")
+    assert fingerprint("pipeline.stages.alpha", root)["pipeline/helper.py"] != before["pipeline/helper.py"]
+
+
+def test_the_stage_writes_every_fingerprint(tmp_path):
+    out = tmp_path / "code_fingerprints"
+    code_fingerprints.main(["--out", str(out)])
+    written = sorted(p.relative_to(out).with_suffix("").as_posix() for p in out.rglob("*.json"))
+    assert written == sorted(entry_points(REPO))
+    record = yaml.safe_load((out / "stages" / "evaluate_ynet.json").read_text())
+    assert record["module"] == "pipeline.stages.evaluate_ynet"
+    assert record["files"] == fingerprint("pipeline.stages.evaluate_ynet")
+    assert "ynet/model.py" in record["files"]
 
 
 @pytest.mark.parametrize("stage", STAGES, ids=lambda s: s.addressing)
@@ -76,27 +143,6 @@ def test_the_closure_follows_imports_through_packages():
     assert "pipeline/__init__.py" not in closure  # a docstring only
     assert "pipeline/stages/__init__.py" not in closure
     assert "ynet/model.py" in code_closure("pipeline.stages.evaluate_ynet")
-
-
-def test_a_registered_models_imports_become_its_stages_deps(tmp_path):
-    """tools/sync_dvc_deps.py adds what a registered model's file imports to the code deps of the
-    stages that load it by name, beside the templated `pipeline/models/${item.model}.py`."""
-    from tools.sync_dvc_deps import MODEL_DEP, registered_model_code, synced_deps
-
-    params = tmp_path / "params.yaml"
-    params.write_text("models:\n  constant_velocity: {class: ConstantVelocity, label: CV, "
-                      "colour: '#7f7f7f', settings: {}}\n")
-    imported = registered_model_code(params)
-    assert "pipeline/harness/baselines/constant_velocity.py" in imported  # extrapolate
-    assert "pipeline/models/__init__.py" in imported  # the contract
-    assert "pipeline/models/constant_velocity.py" not in imported  # the templated dep names it
-    body = {"cmd": "python -m pipeline.stages.predict_model --model ${item.model}",
-            "deps": ["pipeline/io.py", MODEL_DEP, "data/x.parquet"]}
-    deps = synced_deps(body, params)
-    assert deps[-2:] == [MODEL_DEP, "data/x.parquet"]  # kept as written, after the code
-    assert set(deps[:-2]) == set(code_closure("pipeline.stages.predict_model")) | imported
-    params.write_text("models: {}\n")  # nothing registered: the stage's own imports only
-    assert set(synced_deps(body, params)[:-2]) == set(code_closure("pipeline.stages.predict_model"))
 
 
 def test_every_locked_stage_is_a_stage_of_dvc_yaml():

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from tools.code_graph import REPO, imported_modules, module_name
+from pipeline.code_graph import REPO, imported_modules, module_name
 
 STAGES = "pipeline.stages"
 

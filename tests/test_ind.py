@@ -463,7 +463,7 @@ def test_dvc_repro_without_and_with_the_path(tmp_path):
     dvc(["init", "--no-scm", "-q"], repo)
     write_tiny_unet(repo / "data" / "segmentation" / "model.pt")  # stands in for stage segmentation
 
-    dvc(["repro", "--single-item", "ind_windows", "train_ind", "evaluate_ind"], repo)
+    dvc(["repro", "--single-item", "code_fingerprints", "ind_windows", "train_ind", "evaluate_ind"], repo)
     windows = json.loads((repo / "metrics/ind_windows.json").read_text())
     assert windows["provided"] is False and "data.ind.path" in windows["reason"]
     assert windows["windows"] == {"tf30": {"train": 0, "val": 0, "test": 0},
@@ -477,7 +477,7 @@ def test_dvc_repro_without_and_with_the_path(tmp_path):
     root = write_ind_copy(tmp_path / "copy")
     params = yaml.safe_load((repo / "params.yaml").read_text())
     write_params(repo, path=str(root), **tiny_profile(params))
-    dvc(["repro", "--single-item", "ind_windows", "train_ind", "evaluate_ind"], repo)
+    dvc(["repro", "--single-item", "code_fingerprints", "ind_windows", "train_ind", "evaluate_ind"], repo)
     windows = json.loads((repo / "metrics/ind_windows.json").read_text())
     assert windows["provided"] is True and windows["windows"] == EXPECTED
     benchmark = json.loads((repo / "metrics/ind_benchmark.json").read_text())

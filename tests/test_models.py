@@ -294,7 +294,8 @@ def test_a_window_set_holds_the_documented_arrays():
 
 def test_every_registered_model_has_a_fit_and_a_predict_stage_per_horizon():
     """dvc.yaml's matrix takes the registry's names (a mapping's keys): one stage per (model,
-    horizon), running the model's file and reading only its own registry line."""
+    horizon), depending on the fingerprint of the model's file (what it imports included) and
+    reading only its own registry line."""
     from dvc.repo import Repo
     params = read_params(REPO / "params.yaml")
     horizons, models = params["windows"]["horizons"], load_models(params)
@@ -304,7 +305,7 @@ def test_every_registered_model_has_a_fit_and_a_predict_stage_per_horizon():
         assert names == sorted(f"{kind}@{m}-{h}" for m in models for h in horizons)
         for name in models:
             stage = stages[f"{kind}@{name}-{horizons[0]}"]
-            assert model_file(name) in [d.def_path for d in stage.deps]
+            assert f"data/code_fingerprints/models/{name}.json" in [d.def_path for d in stage.deps]
             declared = {k for p in stage.deps if hasattr(p, "params") for k in p.params}
             assert {f"models.{name}.class", f"models.{name}.settings"} <= declared
             assert not any(k == "models" or k == f"models.{name}" for k in declared)
@@ -416,7 +417,7 @@ def test_a_toy_model_registered_in_a_copy_of_the_repo_reaches_the_report(tmp_pat
     write_no_predictions(repo / "data/predictions/ind/ynet.parquet", ind_prediction_metadata("ynet"),
                          "inD not provided")  # as evaluate_ind writes it without inD
 
-    stages = ["fit_model@mean_speed-30", "predict_model@mean_speed-30", "ind_windows",
+    stages = ["code_fingerprints", "fit_model@mean_speed-30", "predict_model@mean_speed-30", "ind_windows",
               "score_predictions", "report"]
     result = dvc(["repro", "--single-item", *stages], repo)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]

@@ -34,7 +34,7 @@ What the harness does around the model (`pipeline.harness.model_runs`): it reads
 table, hands over the splits, times `fit`, calls `predict` once per seeded round, checks what it
 returns (`check_predictions`: shape, finite, numeric; an error names the model), scores it with
 the shared best-of-K metric and stores every round in the predictions format. A model's own
-imports of project code are followed into its stages' deps (`tools/sync_dvc_deps.py`).
+imports of project code are in its stages' code dep (`data/code_fingerprints/models/<name>.json`).
 """
 
 from __future__ import annotations

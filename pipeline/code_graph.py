@@ -1,10 +1,17 @@
 """The project's import graph, read from the source (no imports run): which modules a file imports,
-and every project file a module needs. `tests/test_dvc_deps.py`, `tests/test_import_graph.py` and
-`tools/sync_dvc_deps.py` share it."""
+every project file a module needs, and the fingerprint of that code.
+
+A stage's code is the closure of its module (`code_closure`). Stage `code_fingerprints` writes each
+stage module's `fingerprint` to a file the stage declares as its one code dep, so DVC re-runs a
+stage exactly when a file its module reaches changes, while dvc.lock records one entry per stage
+instead of one per imported file (each stage that finishes rewrites the whole lock file).
+`tests/test_dvc_deps.py` and `tests/test_import_graph.py` check the house with it.
+"""
 
 from __future__ import annotations
 
 import ast
+import hashlib
 from functools import cache
 from pathlib import Path
 
@@ -71,3 +78,22 @@ def code_closure(module: str, root: Path = REPO) -> frozenset[str]:
             todo.extend(imported_modules(path, root))
     return frozenset(p.relative_to(root).as_posix() for p in seen
                      if p.name != "__init__.py" or has_code(p))
+
+
+def fingerprint(module: str, root: Path = REPO) -> dict[str, str]:
+    """{root-relative path: SHA-256 of its bytes} over `code_closure(module)`, sorted by path:
+    the same mapping exactly when every file the module reaches is the same."""
+    return {path: hashlib.sha256((root / path).read_bytes()).hexdigest()
+            for path in sorted(code_closure(module, root))}
+
+
+def entry_points(root: Path = REPO) -> dict[str, str]:
+    """{fingerprint name: module} of every module a stage runs: `stages/<stage>` for each stage
+    module, and `models/<name>` for each registered-model file (`pipeline/models/<name>.py`), which
+    stages `fit_model` and `predict_model` load by name rather than import."""
+    points = {}
+    for folder in ("stages", "models"):
+        for path in sorted((root / "pipeline" / folder).glob("*.py")):
+            if path.name != "__init__.py" and path.stem != "code_fingerprints":
+                points[f"{folder}/{path.stem}"] = module_name(path, root)
+    return points
