@@ -33,29 +33,14 @@ from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  #
                              load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
 from pipeline.data.window_table import to_arrays  # noqa: E402
-from pipeline.runners.ynet_scoring import (Sampling, load_for_scoring,  # noqa: E402
-                                           predict_samplings, sampling_options)
+from pipeline.runners.ynet_scoring import (load_for_scoring, predict_samplings,  # noqa: E402
+                                           sequence_settings, setting_samplings)
 from pipeline.runners.ynet_training import image_sizes  # noqa: E402
 
 WINDOWS = Path("data/windows/release_tf30.parquet")
 MAPS = Path("data/semantic_maps")
 MODEL = Path("data/ynet/model.pt")
 SDD = Path("data/raw/sdd")
-
-
-def sequence_samplings(params: EvalParams, ttst: TtstParams, cws: CwsParams) -> list[Sampling]:
-    """The samplings `evaluation_sequence` scores: main rounds, ablation rows, the other grid cells."""
-    def options(k_e, k_a, use_ttst=True, use_cws=True):
-        return sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
-
-    main = (params.k_e, params.k_a)
-    samplings = [Sampling(options(*main), params.seed + r) for r in range(params.rounds)]
-    for use_ttst, use_cws in ((False, False), (False, True)):
-        samplings += [Sampling(options(*main, use_ttst, use_cws), params.seed + r)
-                      for r in range(params.ablation_rounds)]
-    samplings += [Sampling(options(k_e, k_a), params.seed) for k_e in params.ka_grid_k_e
-                  for k_a in params.ka_grid_k_a if (k_e, k_a) != main]
-    return samplings
 
 
 def main() -> None:
@@ -80,7 +65,7 @@ def main() -> None:
     model, settings, scenes = load_for_scoring(MODEL, test, load_semantic_maps(MAPS),
                                                image_sizes(SDD, set(test.scene_id)))
     torch.set_num_threads(args.threads)  # after load_for_scoring, which sets the training's
-    samplings = sequence_samplings(evaluation, ttst, cws)
+    samplings = setting_samplings(sequence_settings(evaluation, ttst, cws), evaluation.seed)
     n = len(test)
     warm = [scenes[0].subset(np.arange(1))]
     predict_samplings(model, warm, settings, samplings[:1], evaluation, n, "warm-up")

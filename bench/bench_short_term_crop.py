@@ -18,8 +18,8 @@ import time
 import numpy as np
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_crop.py`
-from pipeline.config import CwsParams, TtstParams
-from pipeline.runners.ynet_scoring import predict_scenes, sampling_options
+from pipeline.runners.short_term import ynet_options
+from pipeline.runners.ynet_scoring import predict_scenes
 from pipeline.harness.metrics import window_errors
 
 
@@ -43,8 +43,7 @@ def main() -> None:
         return
     model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
                                             trained.val, trained.scenes)
-    ttst = TtstParams(temperature=settings.temperature, rel_threshold=settings.rel_threshold)
-    options = sampling_options(args.k, 1, ttst, CwsParams(), use_ttst=True, use_cws=False)
+    options = ynet_options(settings, args.k)  # as evaluate_short_term_ynet samples
     eval_params = settings.eval_params()  # batch, chunk and bf16 as the stage scores
     print(f"{args.dataset}: {len(val)} val windows, K_e = {args.k}, resize {loaded.resize:.4f}, "
           f"trained on crop {loaded.crop}, lead {loaded.crop_lead_steps} steps, load average "

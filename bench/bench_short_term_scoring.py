@@ -24,8 +24,9 @@ import time
 from dataclasses import replace
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_scoring.py`
-from pipeline.config import CwsParams, EvalParams, TtstParams
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options
+from pipeline.config import EvalParams
+from pipeline.runners.short_term import ynet_options
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings
 
 STEPS = {  # printed name: function name in the profile (file suffix, function)
     "input crops and distance maps": ("ynet_data.py", "window_inputs"),
@@ -60,9 +61,7 @@ def main() -> None:
         return
     model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
                                             trained.val, trained.scenes)
-    ttst = TtstParams(temperature=settings.temperature, rel_threshold=settings.rel_threshold)
-    sampling = Sampling(sampling_options(args.k, 1, ttst, CwsParams(), use_ttst=True,
-                                         use_cws=False), settings.seed)
+    sampling = Sampling(ynet_options(settings, args.k), settings.seed)  # as the stage samples
     configured = settings.eval_params()  # batch, chunk and bf16 as the stage scores
 
     def score(params: EvalParams) -> float:

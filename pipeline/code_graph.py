@@ -27,7 +27,14 @@ def module_name(path: Path, root: Path = REPO) -> str:
 
 def imported_modules(path: Path, root: Path = REPO) -> set[str]:
     """Absolute names `path` imports: `import a.b` -> a.b; `from a import b` -> a and a.b
-    (relative imports resolved); imports inside functions count too."""
+    (relative imports resolved); imports inside functions count too. Each version of a file (its
+    mtime and size) is parsed once: every stage's closure passes through the same libraries."""
+    stat = path.stat()
+    return set(_imported_modules(path, root, (stat.st_mtime_ns, stat.st_size)))
+
+
+@cache
+def _imported_modules(path: Path, root: Path, version: tuple[int, int]) -> frozenset[str]:
     name = module_name(path, root)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = set()
@@ -41,7 +48,7 @@ def imported_modules(path: Path, root: Path = REPO) -> set[str]:
                 base = ".".join([*parent, base] if base else parent)
             found.add(base)
             found.update(f"{base}.{alias.name}" for alias in node.names)
-    return found
+    return frozenset(found)
 
 
 def module_path(name: str, root: Path = REPO) -> Path | None:

@@ -654,6 +654,9 @@ class HorizonParams:
     """Evaluation rounds (TTST + CWS, K_e from `eval.<profile>`, K_a = 1)."""
     why_subset: str = ""
     """Shown in the report for a horizon this profile does not train."""
+    init_from_main: bool = False
+    """Start each horizon from the main (30-s) Y-net's weights, its two output heads stretched to
+    the horizon (`ynet.model.weights_for_horizon`), instead of a seeded random init (the authors')."""
 
     def __post_init__(self):
         if self.rounds < 1 or any(int(e) < 1 for e in self.epochs.values()):

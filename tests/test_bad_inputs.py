@@ -46,7 +46,7 @@ from pipeline.io import IntermediateError
 from pipeline.runners import ind as ind_benchmark
 from pipeline.stages import (evaluate_ind, evaluate_short_term_baseline, evaluate_short_term_ynet,
                              evaluate_ynet, evaluate_ynet_horizon, train_ind, train_short_term_baseline,
-                             train_short_term_ynet, train_ynet, train_ynet_horizon)
+                             train_short_term_ynet, train_ynet, train_ynet_horizon, ynet_slot_scoring)
 from pipeline.stages import audit as audit_stage
 from pipeline.stages import fetch as fetch_stage
 from pipeline.stages import horizon_windows as horizon_windows_stage
@@ -914,6 +914,7 @@ def bad_intermediates(tmp_path, monkeypatch):
     edit_json(write_labels_folder(tmp_path / "labels", {"gates_1": "train"}) / "index.json",
               lambda i: i["videos"]["gates_1"].update(split="dev"))
     monkeypatch.chdir(tmp_path)
+    ynet_slot_scoring.main(["--out", "slots"])  # for t_f = 10, which the cpu profile scores
     return tmp_path
 
 
@@ -931,11 +932,12 @@ STAGE_CASES = [
                      "--sdd", "sdd", "--metrics", "out/m.json", "--qualitative", "out/q.npz",
                      "--predictions", "out/p.parquet"], SDD_MAPS),
     (train_ynet_horizon, ["--horizon", "10", "--table", "tf10.parquet", "--semantic-maps", "semantic_maps",
-                          "--sdd", "sdd", "--checkpoint-dir", "out/ck", "--metrics", "out/m.json"], SDD_MAPS),
+                          "--sdd", "sdd", "--main-model", "model.pt", "--checkpoint-dir", "out/ck",
+                          "--metrics", "out/m.json"], SDD_MAPS),
     (evaluate_ynet_horizon, ["--horizon", "10", "--table", "tf10.parquet", "--semantic-maps",
-                             "semantic_maps", "--sdd", "sdd", "--checkpoint-dir", "ck", "--train-metrics",
-                             "trained.json", "--metrics", "out/m.json", "--predictions",
-                             "out/p.parquet"], SDD_MAPS),
+                             "semantic_maps", "--sdd", "sdd", "--checkpoint-dir", "ck", "--scoring",
+                             "slots/tf10.json", "--train-metrics", "trained.json", "--metrics",
+                             "out/m.json", "--predictions", "out/p.parquet"], SDD_MAPS),
     (train_short_term_ynet, ["--dataset", "eth", "--windows", "windows", "--maps", "windows/ethucy_semantic",
                              "--checkpoint-dir", "out/ck", "--metrics", "out/m.json"], ETH_INDEX),
     (evaluate_short_term_ynet, ["--dataset", "eth", "--windows", "windows", "--maps",

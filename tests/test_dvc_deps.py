@@ -105,7 +105,6 @@ def test_a_fingerprint_changes_exactly_when_code_the_module_reaches_changes(tmp_
     before = fingerprint("pipeline.stages.alpha", root)
     assert set(before) == {"pipeline/helper.py", "pipeline/stages/alpha.py"}
     beta = fingerprint("pipeline.stages.beta", root)
-    code_closure.cache_clear()  # the closure is cached per (module, root); files change below
     (root / "pipeline/other.py").write_text("Y = 3\n")
     assert fingerprint("pipeline.stages.alpha", root) == before
     assert fingerprint("pipeline.stages.beta", root) != beta
@@ -150,3 +149,16 @@ def test_every_locked_stage_is_a_stage_of_dvc_yaml():
     leaves a stale record (and stale provenance in the report) behind."""
     locked = set(yaml.safe_load((REPO / "dvc.lock").read_text())["stages"])
     assert locked - {s.addressing for s in STAGES} == set()
+
+
+def test_relock_takes_only_stages_whose_one_change_is_their_code_fingerprint():
+    from tools.relock_fingerprints import fingerprint_only
+
+    fingerprint = "data/code_fingerprints/stages/report.json"
+    assert fingerprint_only([{"changed deps": {fingerprint: "modified"}}])
+    assert not fingerprint_only([{"changed deps": {fingerprint: "deleted"}}])
+    assert not fingerprint_only([{"changed deps": {fingerprint: "modified",
+                                                   "data/windows/release_tf30.parquet": "modified"}}])
+    assert not fingerprint_only([{"changed deps": {"params.yaml": {"ttst.temperature": "modified"}}}])
+    assert not fingerprint_only([{"changed outs": {"metrics/ynet_eval.json": "modified"}}])
+    assert not fingerprint_only(["always changed"])

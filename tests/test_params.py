@@ -3,6 +3,7 @@
 import dataclasses
 import json
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import pytest
 
@@ -101,3 +102,17 @@ def test_post_init_checks_surface_as_params_errors():
 def test_score_predictions_thresholds_are_checked(values, match):
     with pytest.raises(ParamsError, match=match):
         from_dict(ScorePredictionsParams, values, "score_predictions")
+
+
+@pytest.mark.parametrize("name", ["params.yaml", "dvc.yaml", "dvc.lock"])
+def test_dvc_reads_the_project_yaml_as_pyyaml_does(name):
+    """DVC parses these with ruamel.yaml, which uses libyaml (ruamel.yaml.clib) when installed:
+    stricter than the pure parser (an unquoted URL inside a flow mapping `{..., base: https://...}`
+    is an error there, and `dvc status` then calls the file corrupted)."""
+    import yaml
+    from dvc.utils.serialize._yaml import parse_yaml
+    from ruamel.yaml.main import CParser
+
+    assert CParser is not None, "ruamel.yaml.clib is missing: pyproject.toml pins it"
+    text = (Path(__file__).resolve().parents[1] / name).read_text()
+    assert parse_yaml(text, name) == yaml.load(text, Loader=yaml.CSafeLoader)

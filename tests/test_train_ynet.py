@@ -14,7 +14,8 @@ from pipeline.runners import ynet_training as train_ynet
 
 from pipeline.harness.metrics import window_errors
 from pipeline.runners.ynet_scoring import (Sampling, evaluate, evaluation_sequence, load_model,
-                                           predict_samplings, predict_scenes, sampling_options)
+                                           predict_samplings, predict_scenes, sampling_options,
+                                           sequence_settings, setting_samplings)
 from pipeline.runners.ynet_training import YnetSettings, run_fingerprint, scale_waypoints, train
 from pipeline.preemption import Preemption, StopRequested
 from pipeline.data.window_table import WindowArrays
@@ -201,6 +202,20 @@ def test_the_grid_cell_of_the_main_setting_equals_sampling_it_afresh(tmp_path):
         options = sampling_options(cell["k_e"], cell["k_a"], TtstParams(), CwsParams(), True, True)
         assert cell == evaluate(model, scenes, settings, options, params, test.future, 1, "fresh")
     assert result["ka_grid"][0]["per_round"] == result["main"]["per_round"][:1]
+
+
+def test_the_sequence_samples_each_setting_once_per_round():
+    """What `evaluation_sequence` samples (`sequence_settings`, the benches' list too): the main
+    rounds, the ablation rows, and every grid cell but the main one, seeded round by round."""
+    params = EvalParams(k_e=3, k_a=1, rounds=2, ablation_rounds=1, ka_grid_k_e=[2, 3],
+                        ka_grid_k_a=[1, 2], seed=7)
+    scored = sequence_settings(params, TtstParams(), CwsParams())
+    assert [(s.name, s.rounds) for s in scored] == [
+        ("main", 2), ("none", 1), ("cws", 1), ("K_e=2 K_a=1", 1), ("K_e=2 K_a=2", 1), ("K_e=3 K_a=2", 1)]
+    assert [(s.options.use_ttst, s.options.use_cws) for s in scored[:3]] == [
+        (True, True), (False, False), (False, True)]
+    assert [s.seed for s in setting_samplings(scored, params.seed)] == [7, 8, 7, 7, 7, 7, 7]
+    assert [s.name for s in sequence_settings(params, TtstParams(), CwsParams(), extras=False)] == ["main"]
 
 
 def separate_pass(model, scenes, settings, options, seed, params, n_windows):

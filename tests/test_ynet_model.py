@@ -1,3 +1,5 @@
+import math
+
 import pytest
 import torch
 import torch.nn.functional as F
@@ -5,7 +7,7 @@ from torch.testing import assert_close
 
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, scene_and_past
 from ynet.loss import ynet_loss
-from ynet.model import Decoder, Encoder, YNet, YNetConfig, shared_input_conv
+from ynet.model import Decoder, Encoder, YNet, YNetConfig, shared_input_conv, weights_for_horizon
 from ynet.sampling import SamplingOptions, predict, softargmax
 
 torch.set_num_threads(1)
@@ -161,3 +163,32 @@ def test_head_bias_starts_every_map_low_and_none_keeps_the_default():
     default = YNet(TINY)
     assert not torch.all(default.trajectory_decoder.head.bias == -15.0)
     assert default.trajectory_decoder.head.bias.abs().max() < 1.0
+
+
+@pytest.mark.parametrize("pred_len, waypoints, goal_source", [(60, (29, 59), 29), (10, (4, 9), 29),
+                                                              (5, (2, 4), 29), (30, (14, 29), 29)])
+def test_weights_for_horizon_keep_every_layer_and_take_each_step_at_the_same_fraction(
+        pred_len, waypoints, goal_source):
+    torch.manual_seed(0)
+    source = YNet(YNetConfig(pred_len=30, waypoints=(14, 29))).state_dict()
+    moved = weights_for_horizon(source, pred_len)
+    target = YNet(YNetConfig(pred_len=pred_len, waypoints=waypoints))
+    target.load_state_dict(moved)  # every shape fits the other horizon's model
+    for name, value in source.items():
+        if ".head." in name:
+            assert moved[name].shape[0] == pred_len
+            assert torch.equal(moved[name][-1], value[goal_source])  # the goal's map is the goal's
+            # step t of pred_len takes the source step at the same fraction of the horizon
+            steps = [math.ceil((t + 1) * 30 / pred_len) - 1 for t in range(pred_len)]
+            assert torch.equal(moved[name], value[torch.tensor(steps)])
+        else:
+            assert torch.equal(moved[name], value)
+    if pred_len == 30:
+        assert all(torch.equal(moved[k], source[k]) for k in source)  # the same horizon: a copy
+
+
+def test_weights_for_horizon_need_both_heads():
+    state = YNet(YNetConfig()).state_dict()
+    del state["goal_decoder.head.weight"], state["goal_decoder.head.bias"]
+    with pytest.raises(ValueError, match="both heads"):
+        weights_for_horizon(state, 60)

@@ -337,3 +337,13 @@ def test_nearest_centre_is_the_first_centre_at_the_least_squared_distance():
     centres = torch.rand(2, 19, 2, generator=draws) * 90
     squared = (points[:, :, None] - centres[:, None]).square().sum(-1)
     assert torch.equal(nearest_centre(points, centres), squared.argmin(-1))
+
+
+def test_kmeans_and_goal_masses_take_the_distinct_points_they_would_compute():
+    """TTST computes `distinct_points` of its draws once for both: the same numbers as each
+    computing its own."""
+    draws = torch.randint(0, 12, (3, 400, 2), generator=gen(5)).float()  # (3, 400, 2) with repeats
+    distinct = distinct_points(draws)
+    assert torch.equal(kmeans(draws, 4, gen(1), distinct=distinct), kmeans(draws, 4, gen(1)))
+    goals = kmeans(draws, 4, gen(1))
+    assert torch.equal(goal_masses(draws, goals, distinct), goal_masses(draws, goals))

@@ -21,7 +21,7 @@ from pipeline.harness import seed_spread
 from pipeline.io import IntermediateError
 from pipeline.runners import ynet_training
 from pipeline.stages import (baseline_seed_spread, evaluate_ynet, evaluate_ynet_seed, train_ynet,
-                             train_ynet_seed)
+                             train_ynet_seed, ynet_slot_scoring)
 from tests.fixtures import write_walker_scenes
 from tests.test_baseline_seeds import three_seeds, write_records
 
@@ -68,7 +68,8 @@ def train_seed(seed: int) -> None:
 
 
 def evaluate_seed(seed: int) -> dict:
-    evaluate_ynet_seed.main([*INPUTS, "--checkpoint-dir", f"ck/seed{seed}", "--train-metrics",
+    evaluate_ynet_seed.main([*INPUTS, "--checkpoint-dir", f"ck/seed{seed}",
+                             "--scoring", f"slots/seed{seed}.json", "--train-metrics",
                              f"m/ynet_seeds/train_seed{seed}.json",
                              "--metrics", f"m/ynet_seeds/seed{seed}.json"])
     return json.loads(Path(f"m/ynet_seeds/seed{seed}.json").read_text())
@@ -86,6 +87,7 @@ def same_weights(a: Path, b: Path) -> bool:
 def test_seed_stages_train_other_models_and_score_them_as_the_main_one(tmp_path, monkeypatch):
     params = write_fixture(tmp_path, seeds=[0, 1, 2])
     monkeypatch.chdir(tmp_path)
+    ynet_slot_scoring.main(["--out", "slots"])
     train_ynet.main([*INPUTS, "--checkpoint-dir", "ck/main", "--model", "model.pt",
                      "--history", "history.csv", "--metrics", "m/ynet_train.json"])
     evaluate_ynet.main([*INPUTS, "--model", "model.pt", "--metrics", "m/ynet_eval.json",
@@ -144,6 +146,7 @@ def test_seed_stages_train_other_models_and_score_them_as_the_main_one(tmp_path,
 def test_a_slot_the_profile_does_not_train_says_why_and_trains_nothing(tmp_path, monkeypatch):
     write_fixture(tmp_path, seeds=[])
     monkeypatch.chdir(tmp_path)
+    ynet_slot_scoring.main(["--out", "slots"])
 
     def never(*args, **kwargs):
         raise AssertionError("a slot the profile does not list must not train")

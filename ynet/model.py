@@ -247,3 +247,28 @@ class YNet(nn.Module):
         """(B, C + n_p, H, W), (B, n_w, H, W) -> goal logits, trajectory logits, each (B, n_f, H, W)."""
         features = self.encode(scene_and_past)
         return self.predict_goals(features), self.predict_trajectory(features, waypoint_maps)
+
+
+HEADS = ("goal_decoder.head.", "trajectory_decoder.head.")
+"""The only parameters whose shape depends on the horizon: one output map per future step."""
+
+
+def weights_for_horizon(state: dict[str, torch.Tensor], pred_len: int) -> dict[str, torch.Tensor]:
+    """A trained Y-net's weights as the starting point of a model for another horizon `pred_len`.
+
+    Every layer is kept as it is (the waypoints are the same fractions of any horizon, so the
+    trajectory decoder's conditioning channels keep their meaning); each head's map for future
+    step t is the trained head's map at the same fraction of the horizon, rounded up: step
+    ceil((t + 1) * n_src / pred_len) - 1, so the goal maps to the goal.
+    """
+    sources = {name.rsplit(".", 1)[0] for name in state if name.startswith(HEADS)}
+    if len(sources) != len(HEADS):
+        raise ValueError(f"expected the parameters of both heads {HEADS}, found {sorted(sources)}")
+    out = {}
+    for name, value in state.items():
+        if name.startswith(HEADS):
+            n_src = value.shape[0]
+            steps = [-(-(t + 1) * n_src // pred_len) - 1 for t in range(pred_len)]  # integer ceil
+            value = value[torch.tensor(steps)]  # (pred_len, ...) as the head's (n_src, ...)
+        out[name] = value.clone()
+    return out

@@ -171,6 +171,7 @@ def kmeans(
     generator: torch.Generator,
     max_iter: int = 1000,
     tol: float = 1e-3,
+    distinct: tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> torch.Tensor:
     """Lloyd's k-means on many point sets at once: (N, P, 2) -> centres (N, k, 2).
 
@@ -182,12 +183,12 @@ def kmeans(
     ones: the iterations run on those, weighted by their counts, and sum each cluster with
     `scatter_add` (no (N, U, k) one-hot). Random draws still index the full sets, so the centres are
     the ones the plain algorithm finds (bit-identical for whole-number points, whose sums are exact
-    in float32 in any order).
+    in float32 in any order). `distinct`: `distinct_points(points)`, where the caller has it already.
     """
     n, p, _ = points.shape
     first = torch.rand(n, p, generator=generator, device=points.device).argsort(dim=-1)[:, :k]  # (N, k)
     centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))  # (N, k, 2)
-    unique, weights = distinct_points(points)  # (N, U, 2), (N, U)
+    unique, weights = distinct_points(points) if distinct is None else distinct  # (N, U, 2), (N, U)
     weighted = unique * weights[..., None]  # (N, U, 2)
     active = torch.ones(n, dtype=torch.bool, device=points.device)
     for _ in range(max_iter):
@@ -208,11 +209,13 @@ def kmeans(
     return centres
 
 
-def goal_masses(draws: torch.Tensor, goals: torch.Tensor) -> torch.Tensor:
+def goal_masses(draws: torch.Tensor, goals: torch.Tensor,
+                distinct: tuple[torch.Tensor, torch.Tensor] | None = None) -> torch.Tensor:
     """TTST's weight of each goal: the share of the goal-map draws (B, S, 2) nearest to it among
     the goals (B, K_e, 2) -> (B, K_e), rows summing to 1 (the first goal on ties). The softargmax
-    goal competes with the k-means centres, so each goal weighs the part of the map it stands for."""
-    unique, counts = distinct_points(draws)  # (B, U, 2), (B, U)
+    goal competes with the k-means centres, so each goal weighs the part of the map it stands for.
+    `distinct`: `distinct_points(draws)`, where the caller has it already."""
+    unique, counts = distinct_points(draws) if distinct is None else distinct  # (B, U, 2), (B, U)
     nearest = nearest_centre(unique, goals)  # (B, U)
     masses = counts.new_zeros(goals.shape[:2]).scatter_add_(1, nearest, counts)  # (B, K_e)
     return masses / draws.shape[1]
@@ -233,9 +236,11 @@ def ttst(
         return best, torch.ones_like(best[..., 0])
     prob = torch.sigmoid(goal_logits / options.temperature)  # (B, H, W)
     draws = sample_positions(prob, options.ttst_samples, generator, options.rel_threshold)  # (B, S, 2)
-    centres = kmeans(draws, options.K_e - 1, generator, options.kmeans_max_iter, options.kmeans_tol)
+    distinct = distinct_points(draws)  # (B, U, 2), (B, U): for the k-means and the masses
+    centres = kmeans(draws, options.K_e - 1, generator, options.kmeans_max_iter, options.kmeans_tol,
+                     distinct)
     goals = torch.cat([best, centres], dim=1)  # (B, K_e, 2)
-    return goals, goal_masses(draws, goals)
+    return goals, goal_masses(draws, goals, distinct)
 
 
 def ttst_goals(

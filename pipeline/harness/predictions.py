@@ -371,6 +371,13 @@ def long_term_benchmark(table: Path) -> str:
     return f"sdd_long_term_{Path(table).stem}"
 
 
+def long_term_metadata(model: str, table: Path) -> dict[str, Any]:
+    """What a stored long-term SDD test predictions file records first: the model, the benchmark of
+    the window table scored (`long_term_benchmark`), the unit and split, and the table."""
+    return {"model": model, "benchmark": long_term_benchmark(table), "unit": "px", "split": "test",
+            "window_table": str(table)}
+
+
 class PredictionRounds:
     """The rounds of one setting kept as a scorer samples them (`add`, round 0 first), written as
     one predictions file with their seeds (`write`). `add` only keeps a copy of the arrays (the

@@ -32,7 +32,7 @@ from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import SceneWindows, group_by_scene, window_inputs
 from pipeline.device import CPU, conv_layout, generator, module_device
 from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, window_errors
-from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
+from pipeline.harness.predictions import PredictionRounds, long_term_metadata
 from pipeline.runners.ynet_training import YnetSettings
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
@@ -58,7 +58,6 @@ def load_model(path: Path, device: torch.device = CPU) -> tuple[YNet, YnetSettin
     return conv_layout(model, device), YnetSettings(**saved["settings"])
 
 
-
 def load_for_scoring(path: Path, test: WindowArrays, semantic_maps: dict[str, np.ndarray],
                      sizes: dict[str, tuple[int, int]], device: torch.device = CPU
                      ) -> tuple[YNet, YnetSettings, list[SceneWindows]]:
@@ -69,6 +68,7 @@ def load_for_scoring(path: Path, test: WindowArrays, semantic_maps: dict[str, np
     torch.set_num_threads(settings.threads)
     torch.set_flush_denormal(True)
     return model, settings, group_by_scene(test, semantic_maps, sizes, settings.resize, device)
+
 
 @dataclass(frozen=True)
 class Sampling:
@@ -154,8 +154,7 @@ def prediction_metadata(table: Path, options: SamplingOptions | None = None,
     """What a stored long-term SDD Y-net predictions file records besides its seeds: the model, the
     benchmark of the window table scored, the unit and split, and, where it was scored, the
     sampling options (K = K_e x K_a) and the checkpoint."""
-    metadata = {"model": "ynet", "benchmark": long_term_benchmark(table), "unit": "px",
-                "split": "test", "window_table": str(table)}
+    metadata = long_term_metadata("ynet", table)
     if options is not None:
         metadata.update(k=options.K, k_e=options.K_e, k_a=options.K_a,
                         sampling=asdict(options), checkpoint=str(checkpoint))
@@ -179,6 +178,11 @@ class Setting:
     rounds: int
 
 
+def setting_samplings(scored: list[Setting], seed: int) -> list[Sampling]:
+    """Every round of every setting of `scored` as a `Sampling`, in order; round r seeded `seed + r`."""
+    return [Sampling(setting.options, seed + r) for setting in scored for r in range(setting.rounds)]
+
+
 def evaluate_settings(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
                       scored: list[Setting], params: EvalParams, truth: np.ndarray, desc: str,
                       kept: PredictionRounds | None = None) -> tuple[dict[str, dict], dict[str, float]]:
@@ -187,8 +191,7 @@ def evaluate_settings(model: YNet, scenes: list[SceneWindows], settings: YnetSet
     the shared encoding plus its own sampling, what it would take alone. `kept` (for the windows of
     `truth`, in its order) receives the first setting's rounds, paths, goals (original pixels) and
     weights (TTST's goal masses, `ynet.sampling.goal_masses`) exactly as scored."""
-    samplings = [Sampling(setting.options, params.seed + r)
-                 for setting in scored for r in range(setting.rounds)]
+    samplings = setting_samplings(scored, params.seed)
     sampled, shared_seconds = predict_samplings(model, scenes, settings, samplings, params,
                                                 len(truth), f"{desc} ({len(samplings)} samplings)")
     results, seconds, first = {}, {}, 0
@@ -291,6 +294,30 @@ def sdd_scene_image(sdd_root: Path, scene_id: str) -> np.ndarray:
     return image
 
 
+def ka_grid(params: EvalParams) -> list[tuple[int, int]]:
+    """The K_e x K_a grid's cells (K_e, K_a), K_a fastest."""
+    return [(k_e, k_a) for k_e in params.ka_grid_k_e for k_a in params.ka_grid_k_a]
+
+
+def sequence_settings(params: EvalParams, ttst: TtstParams, cws: CwsParams,
+                      extras: bool = True) -> list[Setting]:
+    """What `evaluation_sequence` samples, in its order: "main" (TTST + CWS at `k_e`, `k_a` over
+    `rounds`); with `extras`, the ablation rows "none" and "cws" (`ablation_rounds` each, none at
+    0) and every grid cell but the main setting's, "K_e=<k_e> K_a=<k_a>" (one round)."""
+    def options(k_e: int, k_a: int, use_ttst: bool = True, use_cws: bool = True) -> SamplingOptions:
+        return sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
+
+    main = (params.k_e, params.k_a)
+    scored = [Setting("main", options(*main), params.rounds)]
+    if extras and params.ablation_rounds > 0:
+        scored += [Setting("none", options(*main, False, False), params.ablation_rounds),
+                   Setting("cws", options(*main, False, True), params.ablation_rounds)]
+    if extras:
+        scored += [Setting(f"K_e={k_e} K_a={k_a}", options(k_e, k_a), 1)
+                   for k_e, k_a in ka_grid(params) if (k_e, k_a) != main]
+    return scored
+
+
 def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
                         params: EvalParams, ttst: TtstParams, cws: CwsParams, truth: np.ndarray,
                         label: str = "", extras: bool = True,
@@ -309,30 +336,20 @@ def evaluation_sequence(model: YNet, scenes: list[SceneWindows], settings: YnetS
     `kept` receives the main result's rounds, nothing of the ablation or the grid.
     """
     start = time.perf_counter()
-
-    def options(k_e: int, k_a: int, use_ttst: bool = True, use_cws: bool = True) -> SamplingOptions:
-        return sampling_options(k_e, k_a, ttst, cws, use_ttst, use_cws)
-
     main = (params.k_e, params.k_a)
-    scored = [Setting("main", options(*main), params.rounds)]
-    ablation = extras and params.ablation_rounds > 0
-    if ablation:
-        scored += [Setting("none", options(*main, False, False), params.ablation_rounds),
-                   Setting("cws", options(*main, False, True), params.ablation_rounds)]
-    grid = [(k_e, k_a) for k_e in params.ka_grid_k_e for k_a in params.ka_grid_k_a] if extras else []
-    scored += [Setting(f"K_e={k_e} K_a={k_a}", options(k_e, k_a), 1) for k_e, k_a in grid
-               if (k_e, k_a) != main]
+    scored = sequence_settings(params, ttst, cws, extras)
+    grid = ka_grid(params) if extras else []
     results, seconds = evaluate_settings(model, scenes, settings, scored, params, truth,
                                          f"{label}TTST+CWS", kept)
     result = {"main": results["main"], "main_seconds": seconds["main"]}
     if after_main is not None:
         after_main(result)
-    if ablation:
+    if "none" in results:  # sequence_settings sampled the ablation
         result["ablation"] = {"ttst_cws": result["main"], "none": results["none"],
                               "cws": results["cws"]}
     if grid:
         main_first_round = rounds_result(rounds_record(result["main"]["per_round"][:1]),
-                                         options(*main))
+                                         scored[0].options)
         result["ka_grid"] = [main_first_round if cell == main else results[f"K_e={cell[0]} K_a={cell[1]}"]
                              for cell in grid]
     result["eval_seconds"] = time.perf_counter() - start

@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import pickle
 import random
 import time
 from dataclasses import asdict, dataclass, field
@@ -36,11 +37,11 @@ from pipeline.data.ynet_data import (AUGMENTATIONS, SceneWindows, TrainingBatch,
 from pipeline import checkpoints
 from pipeline.device import CPU, autocast, conv_layout, restore_rng_states, rng_states
 from pipeline.harness.metrics import ade_fde
-from pipeline.io import copy_file, save_torch, write_csv
+from pipeline.io import IntermediateError, copy_file, save_torch, write_csv
 from pipeline.preemption import NEVER, Preemption
 from ynet.heatmaps import distance_maps, upstream_max_distance
 from ynet.loss import ynet_loss
-from ynet.model import YNet, YNetConfig
+from ynet.model import YNet, YNetConfig, weights_for_horizon
 from ynet.sampling import softargmax
 from ynet.segmentation import PAD_CLASS
 
@@ -349,22 +350,64 @@ def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str
     return digest.hexdigest()
 
 
+def horizon_start(main_model: Path, settings: YnetSettings, n_past: int,
+                  n_future: int) -> dict[str, torch.Tensor]:
+    """The main Y-net's weights (`train_ynet`'s model file) as the start of a model predicting
+    `n_future` steps with `settings` (`ynet.model.weights_for_horizon`). The two models must differ
+    in their horizon and waypoints alone, or an IntermediateError names the file."""
+    try:
+        saved = torch.load(main_model, map_location="cpu", weights_only=True)
+        state, config = saved["model"], saved["config"]
+    except FileNotFoundError as e:
+        raise IntermediateError(f"{main_model}: missing (re-run train_ynet)") from e
+    except (OSError, RuntimeError, KeyError, TypeError, pickle.UnpicklingError) as e:
+        raise IntermediateError(f"{main_model}: not a Y-net model file as train_ynet writes it ({e})") from e
+    wanted = asdict(settings.model_config(n_past, n_future))
+    differs = sorted(key for key in wanted if key not in ("pred_len", "waypoints")
+                     and list_of(config.get(key)) != list_of(wanted[key]))
+    if differs:
+        raise IntermediateError(f"{main_model}: its model differs from this horizon's in {differs} "
+                                "(a horizon can start from the main model only with the same ynet settings)")
+    return weights_for_horizon(state, n_future)
+
+
+def list_of(value):
+    """Tuples (a config) and lists (its JSON-like copy in a checkpoint) compare equal."""
+    return list(value) if isinstance(value, (list, tuple)) else value
+
+
+def state_digest(state: dict[str, torch.Tensor]) -> str:
+    """SHA-256 of a state dict's names and values."""
+    digest = hashlib.sha256()
+    for name in sorted(state):
+        digest.update(name.encode())
+        digest.update(state[name].detach().cpu().contiguous().numpy().tobytes())
+    return digest.hexdigest()
+
+
 def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, sizes,
           settings: YnetSettings, n_past: int, checkpoint: Path, best_path: Path,
           history_path: Path, epochs: int | None = None, device: torch.device = CPU,
-          preemption: Preemption = NEVER) -> dict:
+          preemption: Preemption = NEVER,
+          initial_weights: dict[str, torch.Tensor] | None = None) -> dict:
     """Train (resuming from `checkpoint` if present); returns the training summary.
 
-    Checkpoint (`pipeline.checkpoints`; identity: `run_fingerprint`) = weights, optimiser, the plan
-    RNG's state at the start of the next epoch (or of the current one, with the position's `losses`
-    of the steps already taken in it), torch's RNG, history.
+    `initial_weights` (a state dict of this model's shapes) replace the seeded random init: a
+    horizon model starting from the main one (`ynet.model.weights_for_horizon`).
+    Checkpoint (`pipeline.checkpoints`; identity: `run_fingerprint`, and the initial weights'
+    digest if given) = weights, optimiser, the plan RNG's state at the start of the next epoch (or
+    of the current one, with the position's `losses` of the steps already taken in it), torch's
+    RNG, history.
     """
     torch.set_num_threads(settings.threads)
     torch.set_flush_denormal(True)  # otherwise Adam crawls through denormal numbers on CPU
     seed_everything(settings.seed)
     total_epochs = epochs or settings.epochs  # the run's length (the lr schedule spans it)
     n_future = train_arrays.future.shape[1]
-    model = conv_layout(YNet(settings.model_config(n_past, n_future)), device)  # seeded init on CPU
+    model = YNet(settings.model_config(n_past, n_future))  # seeded init on CPU
+    if initial_weights is not None:
+        model.load_state_dict(initial_weights)
+    model = conv_layout(model, device)
     optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
     rng = np.random.default_rng(settings.seed)
     train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize, device)
@@ -373,6 +416,8 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     state = {"epoch": 0, "history": [], "best": None, "seconds": 0.0}
     partial_losses: list[float] = []
     identity = {"run": run_fingerprint(settings, n_past, semantic_maps, train_arrays, val_arrays)}
+    if initial_weights is not None:
+        identity["initial_weights"] = state_digest(initial_weights)
     kept_best = checkpoint.with_name(checkpoints.BEST)  # the best weights, beside the checkpoint
     resumed = checkpoints.resume(checkpoint, identity, total_epochs, "train_ynet")
     if resumed is not None:

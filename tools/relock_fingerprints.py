@@ -1,0 +1,73 @@
+"""Re-record in dvc.lock the code fingerprints of stages whose code changed but whose outputs cannot
+have: a refactor, a docstring, a moved function. Only for that, and only with the evidence (the
+stage re-run outside DVC gives byte-identical outputs, or a test shows it); otherwise `dvc repro`.
+
+    dvc repro code_fingerprints            # first: the fingerprints of the code as it is now
+    python tools/relock_fingerprints.py    # then: list what it would re-record, change nothing
+    python tools/relock_fingerprints.py --write
+
+It refuses when any stale stage has another change than a modified fingerprint dep (data, params,
+outputs, a fingerprint not yet written), naming those stages: they must run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+FINGERPRINTS = "data/code_fingerprints/"
+
+
+def fingerprint_only(changes: list) -> bool:
+    """A stage's `dvc status --json` entry holds only modified fingerprint deps."""
+    for change in changes:
+        if not isinstance(change, dict) or set(change) != {"changed deps"}:
+            return False
+        if any(not path.startswith(FINGERPRINTS) or state != "modified"
+               for path, state in change["changed deps"].items()):
+            return False
+    return True
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--write", action="store_true", help="re-record (default: only list)")
+    args = parser.parse_args(argv)
+    status = json.loads(subprocess.run(["dvc", "status", "--json"], check=True,
+                                       capture_output=True, text=True).stdout or "{}")
+    if "code_fingerprints" in status:
+        print("code_fingerprints is stale: run `dvc repro code_fingerprints` first")
+        return 1
+    must_run = sorted(stage for stage, changes in status.items() if not fingerprint_only(changes))
+    if must_run:
+        print("these stages changed beyond their code fingerprint and must run:\n  "
+              + "\n  ".join(must_run))
+        return 1
+    if not status:
+        print("nothing to re-record: dvc status is clean")
+        return 0
+    print(f"{len(status)} stages differ only in their code fingerprint: {', '.join(sorted(status))}")
+    if not args.write:
+        print("(--write re-records them)")
+        return 0
+    from dvc.utils.serialize import modify_yaml
+
+    recorded = {}  # path -> (md5, size): one file is the fingerprint of every item of a foreach
+    with modify_yaml("dvc.lock") as lock:
+        for name in status:
+            for dep in lock["stages"][name]["deps"]:
+                if dep["path"].startswith(FINGERPRINTS):
+                    if dep["path"] not in recorded:
+                        data = Path(dep["path"]).read_bytes()
+                        recorded[dep["path"]] = hashlib.md5(data).hexdigest(), len(data)
+                    dep["md5"], dep["size"] = recorded[dep["path"]]
+    print("re-recorded; `dvc status` should now be clean")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
