@@ -3,7 +3,9 @@
 import pytest
 import torch
 
-from pipeline.device import autocast, conv_layout, generator, resolve_device, to_device
+import pipeline.device
+from pipeline.device import (autocast, conv_layout, cpu_has_bf16, generator, resolve_device,
+                             to_device, use_bf16)
 from pipeline.config import ParamsError, RuntimeParams, load_section, parse_device_name
 
 
@@ -54,8 +56,8 @@ def test_cpu_helpers_change_nothing():
     assert module.weight.is_contiguous()  # channels-last is for CUDA only
     with autocast(cpu):
         assert (x @ x.T).dtype == torch.float32
-    with autocast(cpu, cpu_bf16=True):
-        assert (x @ x.T).dtype == torch.bfloat16
+    with autocast(cpu, cpu_bf16=True):  # a profile's choice, where the CPU has bf16 hardware
+        assert (x @ x.T).dtype == (torch.bfloat16 if cpu_has_bf16() else torch.float32)
     assert torch.equal(torch.rand(5, generator=generator(cpu, 3)),
                        torch.rand(5, generator=torch.Generator().manual_seed(3)))
 
@@ -63,3 +65,19 @@ def test_cpu_helpers_change_nothing():
 def test_max_minutes_must_not_be_negative():
     with pytest.raises(ParamsError, match="max_minutes"):
         load_section(RuntimeParams, "runtime", {"runtime": {"max_minutes": -1}})
+
+
+@pytest.mark.parametrize("hardware", [True, False])
+def test_cpu_bf16_runs_only_on_bf16_hardware(monkeypatch, capsys, hardware):
+    """Emulated bf16 is about 100x slower than float32 on an AVX2-only CPU: fall back, and say so."""
+    monkeypatch.setattr(pipeline.device, "cpu_has_bf16", lambda: hardware)
+    monkeypatch.setattr(pipeline.device, "_told_float32", False)
+    cpu, x = torch.device("cpu"), torch.randn(3, 4)
+    assert use_bf16(cpu, requested=True) is hardware
+    assert use_bf16(cpu, requested=False) is False
+    assert use_bf16(torch.device("cuda"), requested=False) is True  # CUDA always runs bf16
+    with autocast(cpu, cpu_bf16=True):
+        assert (x @ x.T).dtype == (torch.bfloat16 if hardware else torch.float32)
+    notice = capsys.readouterr().err
+    assert ("no bf16 hardware" in notice) is (not hardware)
+    assert notice.count("note:") <= 1  # once per process

@@ -54,6 +54,7 @@ def assert_same_weights(a: torch.nn.Module, b: torch.nn.Module) -> None:
 
 
 @pytest.mark.parametrize("bf16", [False, True])
+@pytest.mark.usefixtures("cpu_bf16_hardware")
 def test_no_hard_coded_device_in_training_step_and_inference(bf16):
     params = tiny_params(bf16=bf16)
     torch.manual_seed(0)
@@ -105,6 +106,7 @@ def stop_at(monkeypatch, at_step: int, action) -> list[int]:
 
 
 @pytest.mark.parametrize("bf16", [False, True])
+@pytest.mark.usefixtures("cpu_bf16_hardware")
 def test_sigterm_mid_epoch_then_resume_gives_the_same_weights(tmp_path, monkeypatch, bf16):
     params, scenes, run_id = small_run(bf16)
     straight, log = train(scenes, params, tmp_path / "a.pt", run_id, progress=False)

@@ -97,6 +97,7 @@ def test_the_cosine_schedule_falls_from_the_rate_to_zero_and_the_constant_one_st
         scheduled_learning_rate(cosine, 2, len(plan) - 1, len(plan), 2))  # the last step's rate
 
 
+@pytest.mark.usefixtures("cpu_bf16_hardware")
 def test_bf16_autocast_trains_on_the_cpu_close_to_float32():
     train_scenes = scenes()
     losses = {}
@@ -118,6 +119,7 @@ def test_settings_that_cannot_work_are_refused(bad, match):
         YnetSettings(**{**SETTINGS, **bad})
 
 
+@pytest.mark.usefixtures("cpu_bf16_hardware")
 def test_a_resumed_mixed_cosine_bf16_run_ends_with_the_uninterrupted_weights(tmp_path, monkeypatch):
     """Stopped in the middle of epoch 2 (a spent time budget) and resumed: the schedule and the
     mixed plan pick up at that step."""

@@ -237,6 +237,7 @@ def separate_pass(model, scenes, settings, options, seed, params, n_windows):
 
 
 @pytest.mark.parametrize("bf16", [False, True])
+@pytest.mark.usefixtures("cpu_bf16_hardware")
 def test_samplings_of_one_pass_equal_separate_passes(tmp_path, bf16):
     """Encoding each batch once and sampling it for every setting gives, bit for bit, what one
     full pass per setting gives (each setting's generator is consumed in the same order)."""

@@ -30,7 +30,7 @@ from pipeline.config import CwsParams, EvalParams, TtstParams
 from pipeline.data.labels import reference_image_path
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import SceneWindows, group_by_scene, window_inputs
-from pipeline.device import CPU, conv_layout, generator, module_device
+from pipeline.device import CPU, conv_layout, generator, module_device, use_bf16
 from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_metadata
 from pipeline.runners.ynet_training import YnetSettings
@@ -104,7 +104,7 @@ def predict_samplings(model: YNet, scenes: list[SceneWindows], settings: YnetSet
     """
     device = module_device(model)
     draws = [generator(device, sampling.seed) for sampling in samplings]
-    bf16 = params.bf16 or device.type == "cuda"
+    bf16 = use_bf16(device, params.bf16)
     n_future = scenes[0].future.shape[1]
     paths = [np.zeros((n_windows, s.options.K, n_future, 2)) for s in samplings]
     goals = [np.zeros((n_windows, s.options.K, 2)) for s in samplings]
