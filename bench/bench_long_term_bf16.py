@@ -32,6 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
                              load_section, read_params)
+from pipeline.device import cpu_has_bf16  # noqa: E402
 from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
 from pipeline.data.window_table import to_arrays  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402
@@ -74,6 +75,8 @@ def main() -> None:
     runs = {"float32, seed s": score(False, eval_params.seed),
             "bfloat16, seed s": score(True, eval_params.seed),
             "float32, seed s+1": score(False, eval_params.seed + 1)}
+    print("CPU bf16 hardware (AVX-512 BF16 or AMX): "
+          f"{'yes' if cpu_has_bf16() else 'no, so the bf16 cases run float32 (pipeline.device.use_bf16)'}")
     print(f"\n{'run':<20}{'ADE px':>10}{'FDE px':>10}{'s/window':>10}")
     errors = {}
     for name, (paths, goals, seconds) in runs.items():

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from pipeline.device import cpu_has_bf16
 from pipeline.data.labels import read_index
 from pipeline.config import SegmentationParams, load_profile, read_params
 from pipeline.runners.segmentation import epoch_batches, load_training_scenes, train_step, unet_config
@@ -84,6 +85,8 @@ def main() -> None:
           f"{params.base_channels} depth {params.depth} ({n_params / 1e6:.2f} M params), "
           f"bf16 {params.bf16}, batch {bs} x {params.crop}^2, {torch.get_num_threads()} thread(s), "
           f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    print("CPU bf16 hardware (AVX-512 BF16 or AMX): "
+          f"{'yes' if cpu_has_bf16() else 'no, so the bf16 cases run float32 (pipeline.device.use_bf16)'}")
     print(f"  augmented crops: {bs / data_s:8.1f} crops/s ({1000 * data_s:.0f} ms/batch)")
     print(f"  training step:   {bs / step_s:8.1f} crops/s ({1000 * step_s:.0f} ms/batch)")
     print(f"  overall:         {bs / (data_s + step_s):8.1f} crops/s")

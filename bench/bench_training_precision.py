@@ -27,6 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.bench_profiles import IMAGE_HW  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
+from pipeline.device import cpu_has_bf16  # noqa: E402
 from pipeline.config import ShortTermModelsParams, load_profile, read_params  # noqa: E402
 from pipeline.data.window_table import WindowArrays  # noqa: E402
 from pipeline.data.ynet_data import group_by_scene  # noqa: E402
@@ -88,6 +89,8 @@ def main() -> None:
             short_term, batch_size=16, mix_scenes=True, bf16=True), 8, 12),
     }
     print(f"torch {torch.__version__}, {args.threads} threads, {args.steps} steps per case")
+    print("CPU bf16 hardware (AVX-512 BF16 or AMX): "
+          f"{'yes' if cpu_has_bf16() else 'no, so the bf16 cases run float32 (pipeline.device.use_bf16)'}")
     for name, (settings, n_past, n_future) in cases.items():
         rate = samples_per_second(settings, args.steps, n_past, n_future)
         print(f"  {name:46s} {rate:6.1f} samples/s")
