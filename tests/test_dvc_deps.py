@@ -162,3 +162,20 @@ def test_relock_takes_only_stages_whose_one_change_is_their_code_fingerprint():
     assert not fingerprint_only([{"changed deps": {"params.yaml": {"ttst.temperature": "modified"}}}])
     assert not fingerprint_only([{"changed outs": {"metrics/ynet_eval.json": "modified"}}])
     assert not fingerprint_only(["always changed"])
+
+
+def test_relock_narrows_to_the_named_stages_and_foreach_groups():
+    from tools.relock_fingerprints import selected, unknown
+
+    status = {"segmentation": [], "train_ynet_horizon@5": [], "train_ynet_horizon@10": [],
+              "train_ynet": [], "evaluate_ynet": []}
+    assert selected(status, []) == status
+    assert set(selected(status, ["train_ynet_horizon"])) == {"train_ynet_horizon@5",
+                                                             "train_ynet_horizon@10"}
+    # a stage's name is not a prefix of another's: train_ynet leaves the horizons out
+    assert set(selected(status, ["train_ynet", "train_ynet_horizon@10"])) == {
+        "train_ynet", "train_ynet_horizon@10"}
+    names = [s.addressing for s in STAGES]
+    assert unknown(["train_ynet_horizon", "segmentation", "train_ynet_horizon@5"], names) == []
+    assert unknown(["train_ynet_horizn", "train_ynet_horizon@7"], names) == [
+        "train_ynet_horizn", "train_ynet_horizon@7"]

@@ -5,9 +5,12 @@ stage re-run outside DVC gives byte-identical outputs, or a test shows it); othe
     dvc repro code_fingerprints            # first: the fingerprints of the code as it is now
     python tools/relock_fingerprints.py    # then: list what it would re-record, change nothing
     python tools/relock_fingerprints.py --write
+    python tools/relock_fingerprints.py --write segmentation train_ynet_horizon   # only these
 
-It refuses when any stale stage has another change than a modified fingerprint dep (data, params,
-outputs, a fingerprint not yet written), naming those stages: they must run.
+It refuses when any stale stage it is to re-record has another change than a modified fingerprint
+dep (data, params, outputs, a fingerprint not yet written), naming those stages: they must run.
+Stage names narrow it to those stages (a foreach group's name to all its items), so a docstring can
+be re-recorded while other stages of the pipeline still wait to run.
 """
 
 from __future__ import annotations
@@ -33,22 +36,45 @@ def fingerprint_only(changes: list) -> bool:
     return True
 
 
+def selected(status: dict, targets: list[str]) -> dict:
+    """The entries of `dvc status --json` for `targets`: a stage's name, or a foreach group's name
+    for each of its items (`train_ynet_horizon` -> `train_ynet_horizon@5`, ...); no targets: all."""
+    if not targets:
+        return status
+    return {stage: changes for stage, changes in status.items()
+            if any(stage == target or stage.startswith(f"{target}@") for target in targets)}
+
+
+def unknown(targets: list[str], stage_names: list[str]) -> list[str]:
+    """The targets that name no stage and no foreach group of `stage_names` (`dvc stage list`)."""
+    return [target for target in targets
+            if not selected(dict.fromkeys(stage_names), [target])]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="re-record (default: only list)")
+    parser.add_argument("stages", nargs="*", help="only these stages or foreach groups (default: all)")
     args = parser.parse_args(argv)
+    if args.stages:
+        names = subprocess.run(["dvc", "stage", "list", "--name-only"], check=True,
+                               capture_output=True, text=True).stdout.split()
+        if unknown(args.stages, names):
+            print(f"no such stage in dvc.yaml: {', '.join(unknown(args.stages, names))}")
+            return 2
     status = json.loads(subprocess.run(["dvc", "status", "--json"], check=True,
                                        capture_output=True, text=True).stdout or "{}")
     if "code_fingerprints" in status:
         print("code_fingerprints is stale: run `dvc repro code_fingerprints` first")
         return 1
+    status = selected(status, args.stages)
     must_run = sorted(stage for stage, changes in status.items() if not fingerprint_only(changes))
     if must_run:
         print("these stages changed beyond their code fingerprint and must run:\n  "
               + "\n  ".join(must_run))
         return 1
     if not status:
-        print("nothing to re-record: dvc status is clean")
+        print("nothing to re-record: dvc status is clean" + (" for those stages" if args.stages else ""))
         return 0
     print(f"{len(status)} stages differ only in their code fingerprint: {', '.join(sorted(status))}")
     if not args.write:
@@ -65,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
                         data = Path(dep["path"]).read_bytes()
                         recorded[dep["path"]] = hashlib.md5(data).hexdigest(), len(data)
                     dep["md5"], dep["size"] = recorded[dep["path"]]
-    print("re-recorded; `dvc status` should now be clean")
+    print("re-recorded; `dvc status` should now be clean" + (" for those stages" if args.stages else ""))
     return 0
 
 
