@@ -110,3 +110,21 @@ def test_current_stages_are_those_dvc_yaml_defines(monkeypatch):
     names = timed_repro.current_stages()
     assert {"report", "evaluate_ynet", "train_baseline@sgan-30"} <= names
     assert not any(name.startswith("evaluate_constant_velocity") for name in names)  # dropped
+
+
+def test_a_run_of_named_stages_renders_the_report_only_if_it_ran(tmp_path, monkeypatch):
+    """`dvc repro report` after `timed_repro.py tracks` would run every other stale stage, unclocked."""
+    monkeypatch.chdir(tmp_path)
+    calls = []
+
+    def fake_dvc(args, on_stage_done=None):
+        calls.append(args)
+        return 0, DVC_OUTPUT[:7] if args[0] == "repro" and len(calls) == 1 else []
+
+    monkeypatch.setattr(timed_repro, "run_dvc", fake_dvc)
+    monkeypatch.setattr(timed_repro, "current_stages", lambda: {"tracks", "windows@30"})
+    assert timed_repro.main(["tracks", "windows"]) == 0
+    assert calls == [["repro", "tracks", "windows"]]
+    assert timed_repro.rerender_report(["--force"], {"tracks": 1.0})
+    assert timed_repro.rerender_report(["evaluate_ynet", "report"], {"report": 5.0})
+    assert not timed_repro.rerender_report(["evaluate_ynet"], {"evaluate_ynet": 5.0})

@@ -8,7 +8,9 @@ there (a stage that did not run keeps the time of its last run; a stage dvc.yaml
 loses it), with a record of this run: when, how long in all, which stages ran, on how many cores.
 The file is written after every stage, so a run stopped midway (exit_code null) keeps the times of
 the stages it finished. If any stage ran, the report is rendered once
-more, so its provenance section shows this run's times (the report stage reads the file).
+more, so its provenance section shows this run's times (the report stage reads the file); after a
+run of named stages, only if the report was among them (else `dvc repro report` would run every
+other stale stage, unclocked).
 
     python tools/timed_repro.py [dvc repro arguments...]
 """
@@ -109,9 +111,18 @@ def main(argv: list[str] | None = None) -> int:
     if not ran:
         return code
     print(f"timed_repro: {len(ran)} stages in {time.monotonic() - clock:.0f} s; times in {STAGE_TIMES}")
-    if code == 0:  # the page shows the times of the run that just ended
+    if code == 0 and rerender_report(args, ran):  # the page shows the times of the run that just ended
         code, _ = run_dvc(["repro", "report"])
     return code
+
+
+def rerender_report(args: list[str], ran: dict[str, float]) -> bool:
+    """Whether to render the report again after a successful run: after a whole-pipeline run (no
+    stage named in `args`), where only the report is then stale, or when the report itself ran.
+    After `timed_repro.py evaluate_ynet` with other stages stale, `dvc repro report` would run
+    all of those too, unclocked."""
+    named_stages = [arg for arg in args if not arg.startswith("-")]
+    return not named_stages or "report" in ran
 
 
 if __name__ == "__main__":
