@@ -1,8 +1,8 @@
 """How each Y-net slot is scored, resolved for the active profile: one small JSON file per slot.
 
 The slots are the stages `evaluate_ynet_horizon@<t_f>` (the horizons besides the release's) and
-`evaluate_ynet_seed@<seed>` (extra training seeds). A profile trains only some of them (`cpu`: the
-10- and 60-s horizons, no extra seed), yet DVC builds a stage for every slot, and a stage that
+`evaluate_ynet_seed@<seed>` (extra training seeds). A profile may train only some of them (`cpu`:
+every horizon, no extra seed), yet DVC builds a stage for every slot, and a stage that
 declared `ttst` would re-run on every `dvc exp run -S ttst.temperature=...` just to write "not
 trained" again (about 3 s each, nine of them). So stage `ynet_slot_scoring` reads the params once
 and writes `<slot>.json` per slot: the sampling settings for a slot the profile trains, and only
