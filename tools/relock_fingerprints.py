@@ -20,7 +20,12 @@ import hashlib
 import json
 import subprocess
 import sys
+from collections.abc import Iterable
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from tools.timed_repro import current_stages  # noqa: E402  (dvc.yaml's stage names, via DVC's API)
 
 FINGERPRINTS = "data/code_fingerprints/"
 
@@ -45,8 +50,8 @@ def selected(status: dict, targets: list[str]) -> dict:
             if any(stage == target or stage.startswith(f"{target}@") for target in targets)}
 
 
-def unknown(targets: list[str], stage_names: list[str]) -> list[str]:
-    """The targets that name no stage and no foreach group of `stage_names` (`dvc stage list`)."""
+def unknown(targets: list[str], stage_names: Iterable[str]) -> list[str]:
+    """The targets that name no stage and no foreach group of `stage_names`."""
     return [target for target in targets
             if not selected(dict.fromkeys(stage_names), [target])]
 
@@ -56,12 +61,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--write", action="store_true", help="re-record (default: only list)")
     parser.add_argument("stages", nargs="*", help="only these stages or foreach groups (default: all)")
     args = parser.parse_args(argv)
-    if args.stages:
-        names = subprocess.run(["dvc", "stage", "list", "--name-only"], check=True,
-                               capture_output=True, text=True).stdout.split()
-        if unknown(args.stages, names):
-            print(f"no such stage in dvc.yaml: {', '.join(unknown(args.stages, names))}")
-            return 2
+    missing = unknown(args.stages, current_stages()) if args.stages else []
+    if missing:
+        print(f"no such stage in dvc.yaml: {', '.join(missing)}")
+        return 2
     status = json.loads(subprocess.run(["dvc", "status", "--json"], check=True,
                                        capture_output=True, text=True).stdout or "{}")
     if "code_fingerprints" in status:
