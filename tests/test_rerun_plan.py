@@ -1,6 +1,6 @@
 """tools/rerun_plan.py: which stages a params change re-runs, and on the real dvc.yaml the three
 changes issue 20 names: a sampling change re-trains nothing, a short-term S-GAN change touches no
-Y-net, a `paper` change touches nothing while `profile: cpu`."""
+Y-net (only the one run it configures), a `paper` change touches nothing while `profile: cpu`."""
 
 from pathlib import Path
 
@@ -67,9 +67,19 @@ def test_a_short_term_sgan_change_touches_no_y_net(real_pipeline):
     params, declared, upstream_of = real_pipeline
     changed, after = plan(params, [bumped(params, "short_term_models.cpu.epochs.sgan.sdd")],
                           declared, upstream_of)
-    assert "train_short_term_baseline@sdd-sgan" in changed
-    assert not {s for s in changed if "pecnet" in s}
+    assert changed == {"train_short_term_baseline@sdd-sgan"}  # not PECNet, not ETH/UCY's S-GAN
     assert not {s for s in changed | after if "ynet" in s}
+
+
+def test_a_benchmark_s_settings_touch_only_that_benchmark_s_runs(real_pipeline):
+    params, declared, upstream_of = real_pipeline
+    for key in ("short_term_models.cpu.epochs.ynet.ethucy", "short_term_models.cpu.ynet_ethucy.crop"):
+        changed, _ = plan(params, [bumped(params, key)], declared, upstream_of)
+        assert changed == {f"train_short_term_ynet@{fold}" for fold in params["short_term"]["ethucy_folds"]}
+    k_sdd = [k + 1 for k in params["short_term_models"]["cpu"]["k_sdd"]]
+    changed, _ = plan(params, [("short_term_models.cpu.k_sdd", k_sdd)], declared, upstream_of)
+    assert changed == {"evaluate_short_term_ynet@sdd", "evaluate_short_term_baseline@sdd-sgan",
+                       "evaluate_short_term_baseline@sdd-pecnet"}
 
 
 def test_a_paper_change_touches_nothing_while_the_profile_is_cpu(real_pipeline):
