@@ -36,7 +36,6 @@ from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch
 from ynet.model import YNet  # noqa: E402
 
 
-
 def synthetic_windows(n: int, n_past: int, n_future: int, seed: int = 0):
     """`n` straight walks split over two scenes with random 6-class maps (original pixels)."""
     rng = np.random.default_rng(seed)

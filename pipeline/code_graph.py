@@ -3,8 +3,9 @@ every project file a module needs, and the fingerprint of that code.
 
 A stage's code is the closure of its module (`code_closure`). Stage `code_fingerprints` writes each
 stage module's `fingerprint` to a file the stage declares as its one code dep, so DVC re-runs a
-stage exactly when a file its module reaches changes, while dvc.lock records one entry per stage
-instead of one per imported file (each stage that finishes rewrites the whole lock file).
+stage exactly when the code of a file its module reaches changes (`code_text`: comments, blank
+lines and trailing spaces are not code), while dvc.lock records one entry per stage instead of one
+per imported file (each stage that finishes rewrites the whole lock file).
 `tests/test_dvc_deps.py` and `tests/test_import_graph.py` check the house with it.
 """
 
@@ -12,6 +13,8 @@ from __future__ import annotations
 
 import ast
 import hashlib
+import io
+import tokenize
 from functools import cache
 from pathlib import Path
 
@@ -87,11 +90,41 @@ def code_closure(module: str, root: Path = REPO) -> frozenset[str]:
                      if p.name != "__init__.py" or has_code(p))
 
 
+def code_text(source: str, path: Path | str = "<source>") -> str:
+    """`source` without what the interpreter never runs: comments, trailing spaces and blank lines,
+    so that editing them re-runs no stage. Lines inside a multi-line string (a docstring, a
+    template) stay exactly as written: the code can read them. A file Python cannot tokenize is a
+    ValueError naming `path`."""
+    lines = source.splitlines()
+    verbatim: set[int] = set()  # 0-based rows inside multi-line strings
+    try:
+        for token in tokenize.generate_tokens(io.StringIO(source).readline):
+            if token.type == tokenize.COMMENT:
+                row, column = token.start
+                lines[row - 1] = lines[row - 1][:column]
+            elif token.type == tokenize.STRING and token.end[0] > token.start[0]:
+                verbatim.update(range(token.start[0] - 1, token.end[0] - 1))
+    except (tokenize.TokenError, IndentationError, SyntaxError) as error:
+        raise ValueError(f"{path}: not Python that tokenizes: {error}") from error
+    kept = [line if row in verbatim else line.rstrip() for row, line in enumerate(lines)]
+    return "\n".join(line for row, line in enumerate(kept) if row in verbatim or line) + "\n"
+
+
 def fingerprint(module: str, root: Path = REPO) -> dict[str, str]:
-    """{root-relative path: SHA-256 of its bytes} over `code_closure(module)`, sorted by path:
-    the same mapping exactly when every file the module reaches is the same."""
-    return {path: hashlib.sha256((root / path).read_bytes()).hexdigest()
-            for path in sorted(code_closure(module, root))}
+    """{root-relative path: SHA-256 of its `code_text`} over `code_closure(module)`, sorted by
+    path: the same mapping exactly when the code of every file the module reaches is the same."""
+    return {path: code_hash(root / path) for path in sorted(code_closure(module, root))}
+
+
+def code_hash(path: Path) -> str:
+    """SHA-256 of `path`'s `code_text`, tokenized once per content of the file: most closures
+    share the same libraries."""
+    return _code_hash(path.read_bytes(), str(path))
+
+
+@cache
+def _code_hash(data: bytes, path: str) -> str:
+    return hashlib.sha256(code_text(data.decode(), path).encode()).hexdigest()
 
 
 def entry_points(root: Path = REPO) -> dict[str, str]:

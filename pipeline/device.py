@@ -43,10 +43,6 @@ NONDETERMINISTIC_ON_CUDA = (
 )
 
 
-
-
-
-
 def resolve_device(name: str) -> torch.device:
     """The torch.device a `runtime.device` name stands for on this machine."""
     kind, index = parse_device_name(name)

@@ -19,7 +19,7 @@ import pytest
 import yaml
 from dvc.repo import Repo
 
-from pipeline.code_graph import PACKAGES, REPO, code_closure, entry_points, fingerprint
+from pipeline.code_graph import PACKAGES, REPO, code_closure, code_text, entry_points, fingerprint
 from pipeline.stages import code_fingerprints
 
 NOT_A_DEP = {"dvc.lock"}  # read by `report` for provenance; a dep on it could never be up to date
@@ -110,6 +110,32 @@ def test_a_fingerprint_changes_exactly_when_code_the_module_reaches_changes(tmp_
     assert fingerprint("pipeline.stages.beta", root) != beta
     (root / "pipeline/helper.py").write_text("X = 2\n")
     assert fingerprint("pipeline.stages.alpha", root)["pipeline/helper.py"] != before["pipeline/helper.py"]
+
+
+def test_comments_blank_lines_and_trailing_spaces_are_not_code(tmp_path):
+    """Editing them leaves a fingerprint as it was; editing code, a string or a line inside a
+    docstring (the code can read it) changes it."""
+    root = tmp_path / "repo"
+    source = ('"""Doc.\n\nSecond paragraph."""\n\nimport os  # why\n\n\n'
+              'def f(x):\n    # say why\n    return x + 1\n')
+    for path, text in {"pipeline/__init__.py": "", "pipeline/stages/__init__.py": "",
+                       "pipeline/stages/alpha.py": source}.items():
+        (root / path).parent.mkdir(parents=True, exist_ok=True)
+        (root / path).write_text(text)
+
+    def after(text: str) -> dict[str, str]:
+        (root / "pipeline/stages/alpha.py").write_text(text)
+        return fingerprint("pipeline.stages.alpha", root)
+
+    before = fingerprint("pipeline.stages.alpha", root)
+    assert after(source.replace("# why", "# why not").replace("\n\n\ndef", "\n\ndef")) == before
+    assert after(source.replace("x + 1\n", "x + 1   \n").replace("    # say why\n", "")) == before
+    assert after(source.replace("x + 1", "x + 2")) != before
+    assert after(source.replace("import os  # why", "import os, sys  # why")) != before
+    assert after(source.replace("Doc.\n\nSecond", "Doc.\nSecond")) != before
+    assert code_text('s = "# kept"  # dropped\n') == 's = "# kept"\n'
+    with pytest.raises(ValueError, match="broken.py"):
+        code_text('s = """never closed\n', "pipeline/broken.py")
 
 
 def test_the_stage_writes_every_fingerprint(tmp_path):

@@ -15,8 +15,6 @@ import numpy as np
 from pipeline.config import AugmentParams
 
 
-
-
 NO_AUGMENT = AugmentParams(
     rotate_deg=0, flip=False, scale_min=1, scale_max=1, perspective=0, noise_std=0,
     blur_prob=0, brightness=0, contrast=0, colour=0,

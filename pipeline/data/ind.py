@@ -78,10 +78,6 @@ class IndError(ValueError):
     """The inD copy (or the settings pointing at it) cannot be used as it is."""
 
 
-
-
-
-
 @dataclass(frozen=True)
 class Recording:
     """One inD recording: its metadata and its pedestrian positions in background pixels."""

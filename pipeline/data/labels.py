@@ -45,8 +45,6 @@ class MaskError(ValueError):
     """A hand-labelled mask that cannot be used as it is."""
 
 
-
-
 def split_of(name: str) -> str:
     """'train', 'test' (TrajNet, `pipeline.data.splits`) or 'none' (the 13 videos outside the split).
 

@@ -47,8 +47,6 @@ from ynet.segmentation import (
 QUANT = 255  # stored value = round(p * QUANT)
 
 
-
-
 def predict_probabilities(model: UNet, image: np.ndarray, pad_multiple: int) -> np.ndarray:
     """Softmax (C, h, w) float32 of the U-Net over a whole BGR uint8 image (h, w, 3), computed on
     the model's device (bf16 autocast on CUDA; float32 on the CPU)."""

@@ -81,8 +81,6 @@ class ShortTermInputError(ValueError):
     """A raw file of the short-term benchmarks that cannot be used as it is."""
 
 
-
-
 # ---------------------------------------------------------------------------------------------
 # Reading
 

@@ -24,8 +24,6 @@ TRAIN_VIDEOS = frozenset({
 # The other 13 of SDD's 60 videos (e.g. bookstore 4-6, hyang 12-14, nexus 10) are in neither.
 
 
-
-
 def split_of(scene_id: str, val_videos: frozenset[str] | set[str]) -> str | None:
     """'train' / 'val' / 'test' for a `<scene>_<video>` id, None when outside the split."""
     if scene_id in TEST_VIDEOS:

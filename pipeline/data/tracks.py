@@ -33,8 +33,6 @@ _VIDEO_DIR = re.compile(r"^video(\d+)$")
 INT64_MAX = 2**63 - 1
 
 
-
-
 class AnnotationError(ValueError):
     """A malformed annotations.txt; the message names the file and line."""
 

@@ -23,8 +23,6 @@ RELEASE_FILES = {"train": "data/SDD/train_longterm.pkl", "test": "data/SDD/test_
 RELEASE_COLUMNS = ["trackId", "frame", "x", "y", "sceneId", "metaId"]
 
 
-
-
 class ReleaseError(ValueError):
     """The authors' release windows are not what they should be."""
 

@@ -103,8 +103,6 @@ def model_colours(registered: Mapping[str, ModelEntry]) -> dict[str, str]:
     return {**MODEL_COLOURS, **{name: entry.colour for name, entry in registered.items()}}
 
 
-
-
 # ---------------------------------------------------------------------------------------------
 # Comparison tables
 

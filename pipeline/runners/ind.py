@@ -66,9 +66,6 @@ from pipeline.runners.ynet_training import YnetSettings, train
 from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
 
-
-
-
 MAPS = "segmentation/maps.npz"  # in the checkpoint folder: the maps Y-net trained on, for scoring
 BASELINE_MODELS = (*TRAINED_BASELINES, "rpecnet", "constant_velocity")
 IND_MODELS = ("ynet", *BASELINE_MODELS)  # one stored predictions file each

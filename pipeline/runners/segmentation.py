@@ -46,8 +46,6 @@ MODEL_FORMAT = 1
 """The exported weights (`export_model`)."""
 
 
-
-
 def scaled_size(height: int, width: int, scale: float) -> tuple[int, int]:
     """(H, W) after resizing by `scale`, rounded like `cv2.resize(fx=scale, fy=scale)`."""
     return max(1, round(height * scale)), max(1, round(width * scale))

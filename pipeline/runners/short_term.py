@@ -96,10 +96,6 @@ def table_path(windows: Path, dataset: str) -> Path:
 # Settings
 
 
-
-
-
-
 def ynet_settings(base: YnetSettings, params: ShortTermModelsParams, dataset: str, n_future: int,
                   semantic_classes: int) -> YnetSettings:
     """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale and epochs,

@@ -2,8 +2,8 @@
 
 For every stage module (`pipeline/stages/<stage>.py`) and registered-model file
 (`pipeline/models/<name>.py`), writes `<out>/stages/<stage>.json` or `<out>/models/<name>.json`:
-{module, files: {path: SHA-256}} over every project file the module reaches through its imports
-(`pipeline.code_graph.fingerprint`). Each stage declares its file as its one code dep: an edit
+{module, files: {path: SHA-256 of its code}} over every project file the module reaches through its
+imports (`pipeline.code_graph.fingerprint`; comments, blank lines and trailing spaces are not code). Each stage declares its file as its one code dep: an edit
 re-runs exactly the stages whose code it touches (their file changes; the others' stay
 byte-identical), and dvc.lock holds one code entry per stage. Deps: the `pipeline` and `ynet`
 folders. Params: none.
