@@ -112,12 +112,16 @@ def changed_keys(params: Mapping, overrides: Iterable[tuple[str, object]]) -> li
     return keys
 
 
-def plan(params: Mapping, overrides: Iterable[tuple[str, object]],
-         declared: Mapping[str, Iterable[str]], upstream_of: Mapping[str, Iterable[str]]
-         ) -> tuple[set[str], set[str]]:
-    """(changed, downstream) for `overrides` (key, new value) of `params`."""
-    changed = changed_stages(declared, changed_keys(params, overrides))
+def plan(keys: Iterable[str], declared: Mapping[str, Iterable[str]],
+         upstream_of: Mapping[str, Iterable[str]]) -> tuple[set[str], set[str]]:
+    """(changed, downstream) when the params.yaml `keys` (from `changed_keys`) change."""
+    changed = changed_stages(declared, keys)
     return changed, downstream(upstream_of, changed)
+
+
+def trains(stage: str) -> bool:
+    """Whether `stage` learns a model: a `train_*` stage, the segmentation, a registered model's fit."""
+    return stage.startswith(("train", "fit_model")) or stage == "segmentation"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -139,13 +143,11 @@ def main(argv: list[str] | None = None) -> int:
     for key, value in overrides:
         if key not in keys:
             print(f"{key} is already {value!r} in params.yaml: that changes nothing")
-    declared, upstream_of = pipeline_graph()
-    changed, after = plan(params, overrides, declared, upstream_of)
+    changed, after = plan(keys, *pipeline_graph())
     print(f"params changed in ({len(changed)}): {', '.join(sorted(changed)) or '-'}")
     print(f"downstream, re-run unless their inputs come out byte-identical ({len(after)}): "
           f"{', '.join(sorted(after)) or '-'}")
-    training = sorted(stage for stage in changed | after
-                      if stage.startswith("train") or stage == "segmentation")
+    training = sorted(filter(trains, changed | after))
     print(f"training stages among them ({len(training)}): {', '.join(training) or 'none'}")
     return 0
 
