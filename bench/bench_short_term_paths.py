@@ -1,0 +1,70 @@
+"""Does a trained short-term Y-net's trajectory decoder earn its keep at K = 20?
+
+Not a test: prints numbers. On a fixed seeded sample of the benchmark's *validation* windows (never
+the test set; 0 = all of them) it samples K goals as scoring does (TTST with the profile's
+temperature and threshold, one seed) and compares, best of K, in original pixels:
+- the trajectory decoder's paths towards those goals (what the benchmark scores), and
+- straight lines from the last observed position to the same goals, at even steps.
+Where the straight lines win, the trajectory decoder loses accuracy that the goals already had. It
+also prints the error per future step of the best path (chosen on ADE) of each, and how far each
+decoded path ends from the goal it was given.
+
+    python bench/bench_short_term_paths.py --dataset sdd --windows-sample 0
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import short_term_validation  # bench/: run as `python bench/bench_short_term_paths.py`
+from pipeline.runners.short_term import ynet_options
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings
+
+
+def straight_paths(last_observed: np.ndarray, goals: np.ndarray, n_future: int) -> np.ndarray:
+    """(N, 2) last observed positions, (N, K, 2) goals -> (N, K, n_f, 2): even steps to each goal."""
+    fractions = np.arange(1, n_future + 1) / n_future  # (n_f,)
+    start = last_observed[:, None, None]  # (N, 1, 1, 2)
+    return start + (goals[:, :, None] - start) * fractions[None, None, :, None]
+
+
+def best_path_step_errors(paths: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """(N, K, n_f, 2) paths, (N, n_f, 2) truth -> (N, n_f): the errors of each window's best path
+    on ADE (mean over steps), per step."""
+    errors = np.linalg.norm(paths - truth[:, None], axis=-1)  # (N, K, n_f)
+    best = errors.mean(-1).argmin(-1)  # (N,)
+    return errors[np.arange(len(errors)), best]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    short_term_validation.add_arguments(parser)
+    parser.add_argument("--k", type=int, default=20)
+    args = parser.parse_args()
+    trained = short_term_validation.load_from_arguments(args, "bench_short_term_paths")
+    if trained is None:
+        return
+    stage, val, settings = trained.stage, trained.val, trained.settings
+    began = time.perf_counter()
+    (sampled,), _ = predict_samplings(
+        trained.model, trained.scenes, settings, [Sampling(ynet_options(stage, args.k), stage.seed)],
+        stage.eval_params(), len(val), f"Y-net K_e={args.k}", settings.crop, settings.crop_lead_steps)
+    seconds = time.perf_counter() - began
+    lines = straight_paths(val.past[:, -1], sampled.goals, val.future.shape[1])
+    goal_errors = np.linalg.norm(sampled.goals - val.future[:, None, -1], axis=-1)  # (N, K)
+    print(f"{args.dataset}: {len(val)} val windows, K = {args.k} (TTST T = {stage.temperature}, "
+          f"threshold {stage.rel_threshold}, seed {stage.seed}), original pixels, {seconds:.0f} s")
+    print(f"  goals: FDE (best of K) {goal_errors.min(-1).mean():6.2f}")
+    for name, paths in (("Y-net paths", sampled.paths), ("straight lines", lines)):
+        steps = best_path_step_errors(paths, val.future)
+        print(f"  {name:15s} ADE (best of K) {steps.mean():6.2f}  per step of the best: "
+              + " ".join(f"{v:5.1f}" for v in steps.mean(0)))
+    ends = np.linalg.norm(sampled.paths[:, :, -1] - sampled.goals, axis=-1)
+    print(f"  Y-net paths end {ends.mean():.2f} px from the goal they were given (mean over all K)")
+
+
+if __name__ == "__main__":
+    main()
