@@ -933,10 +933,15 @@ class YnetTraining:
     """bfloat16 autocast for the training forward passes on the CPU."""
     lr_schedule: str = "constant"
     """constant | cosine (to 0 over the run)."""
+    trajectory_lr_scale: float | None = None
+    """Factor on the trajectory decoder's learning rate; null (or absent) = one rate, as the authors."""
 
     def __post_init__(self):
         if self.learning_rate is not None and self.learning_rate <= 0:
             raise ValueError(f"learning_rate must be positive or null, got {self.learning_rate}")
+        if self.trajectory_lr_scale is not None and self.trajectory_lr_scale <= 0:
+            raise ValueError(f"trajectory_lr_scale must be positive or null, got "
+                             f"{self.trajectory_lr_scale}")
         if self.batch_size is not None and self.batch_size < 1:
             raise ValueError(f"batch_size must be positive or null, got {self.batch_size}")
 

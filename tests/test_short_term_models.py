@@ -230,12 +230,14 @@ def test_ynet_training_overrides_the_long_term_models_only_where_set():
     params = read_params(REPO / "params.yaml")
     short = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "cpu"})
     base = YnetSettings(learning_rate=3e-4, batch_size=2)
-    for training, rate, batch in ((YnetTraining(learning_rate=2e-3), 2e-3, 2),
-                                  (YnetTraining(batch_size=16, bf16=True), 3e-4, 16)):
+    for training, rate, batch, scale in ((YnetTraining(learning_rate=2e-3), 2e-3, 2, 1.0),
+                                         (YnetTraining(batch_size=16, bf16=True), 3e-4, 16, 1.0),
+                                         (YnetTraining(trajectory_lr_scale=3.0), 3e-4, 2, 3.0)):
         settings = ynet_settings(base, replace(short, ynet_training=training), "eth", N_FUTURE, 3)
         assert (settings.learning_rate, settings.batch_size) == (rate, batch)
+        assert settings.trajectory_lr_scale == scale
         assert settings.bf16 == training.bf16 and settings.waypoints == [N_FUTURE - 1]
-    for bad in ({"learning_rate": 0.0}, {"batch_size": 0}):
+    for bad in ({"learning_rate": 0.0}, {"batch_size": 0}, {"trajectory_lr_scale": -1.0}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             YnetTraining(**bad)
     paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})

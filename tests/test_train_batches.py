@@ -1,5 +1,6 @@
 """How Y-net training batches are drawn and stepped: windows of several scenes mixed in one batch of
-agent crops, the cosine learning-rate schedule, and bfloat16 autocast on the CPU."""
+agent crops, the cosine learning-rate schedule, the trajectory decoder's own rate, and bfloat16
+autocast on the CPU."""
 
 import math
 
@@ -11,7 +12,7 @@ from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.preemption import NEVER, Preemption, StopRequested
 from pipeline.runners import ynet_training
-from pipeline.runners.ynet_training import (YnetSettings, epoch_plan, plan_batch,
+from pipeline.runners.ynet_training import (YnetSettings, epoch_plan, optimizer_groups, plan_batch,
                                             scheduled_learning_rate, train, train_epoch)
 from ynet.loss import ynet_loss
 from ynet.model import YNet
@@ -112,19 +113,44 @@ def test_bf16_autocast_trains_on_the_cpu_close_to_float32():
     assert losses[True] == pytest.approx(losses[False], rel=0.02)
 
 
+def one_step(settings: YnetSettings) -> tuple[dict[str, torch.Tensor], torch.optim.Adam]:
+    """The change of every parameter after one optimiser step from the seeded init, and Adam."""
+    torch.manual_seed(0)
+    model = YNet(settings.model_config(N_PAST, N_FUTURE))
+    before = {name: p.detach().clone() for name, p in model.named_parameters()}
+    optimizer = torch.optim.Adam(optimizer_groups(model, settings), lr=settings.learning_rate)
+    train_scenes = scenes()
+    plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))[:1]
+    train_epoch(model, optimizer, train_scenes, settings, plan, 1, [])
+    return {name: p.detach() - before[name] for name, p in model.named_parameters()}, optimizer
+
+
+def test_the_trajectory_decoder_steps_at_its_own_rate_and_the_rest_as_before():
+    single, single_adam = one_step(YnetSettings(**SETTINGS))
+    scaled, scaled_adam = one_step(YnetSettings(**SETTINGS, trajectory_lr_scale=3.0))
+    assert len(single_adam.param_groups) == 1  # as before the setting: old optimiser states load
+    assert [g["lr"] for g in scaled_adam.param_groups] == pytest.approx([1e-3, 3e-3])
+    trajectory = [name for name in single if name.startswith("trajectory_decoder.")]
+    assert trajectory and len(trajectory) < len(single)
+    for name, change in single.items():
+        if name in trajectory:  # Adam's first step is lr * sign-like: three times as far
+            torch.testing.assert_close(scaled[name], 3 * change, rtol=1e-3, atol=2e-7)  # float32 ulps
+        else:
+            torch.testing.assert_close(scaled[name], change, rtol=0, atol=0)
+    assert any(change.abs().max() > 0 for name, change in single.items() if name in trajectory)
+
+
 @pytest.mark.parametrize("bad, match", [({"mix_scenes": True, "crop": 0}, "mix_scenes"),
-                                        ({"lr_schedule": "linear"}, "lr_schedule")])
+                                        ({"lr_schedule": "linear"}, "lr_schedule"),
+                                        ({"trajectory_lr_scale": 0.0}, "trajectory_lr_scale")])
 def test_settings_that_cannot_work_are_refused(bad, match):
     with pytest.raises(ValueError, match=match):
         YnetSettings(**{**SETTINGS, **bad})
 
 
-@pytest.mark.usefixtures("cpu_bf16_hardware")
-def test_a_resumed_mixed_cosine_bf16_run_ends_with_the_uninterrupted_weights(tmp_path, monkeypatch):
-    """Stopped in the middle of epoch 2 (a spent time budget) and resumed: the schedule and the
-    mixed plan pick up at that step."""
+def assert_resumes_to_the_uninterrupted_weights(settings: YnetSettings, tmp_path, monkeypatch):
+    """Stopped in the middle of epoch 2 (a spent time budget) and resumed: the same last weights."""
     torch.set_num_threads(1)
-    settings = YnetSettings(**SETTINGS, mix_scenes=True, lr_schedule="cosine", bf16=True)
     val = arrays({"gates_0": 2, "hyang_1": 2}, "val", 1)
 
     def run(folder, preemption=NEVER):
@@ -136,10 +162,22 @@ def test_a_resumed_mixed_cosine_bf16_run_ends_with_the_uninterrupted_weights(tmp
     steps = []
     real_loss = ynet_training.ynet_loss
     monkeypatch.setattr(ynet_training, "ynet_loss", lambda *a, **k: steps.append(1) or real_loss(*a, **k))
-    budget = Preemption(max_minutes=1, clock=lambda: 120.0 * (len(steps) >= 6 + 2))  # 6 steps an epoch
+    budget = Preemption(max_minutes=1, clock=lambda: 120.0 * (len(steps) >= 6 + 2))  # in epoch 2: 6 or 7 steps an epoch
     with budget, pytest.raises(StopRequested):
         run(tmp_path / "b", budget)
     monkeypatch.undo()
     resumed = run(tmp_path / "b")
     for name in straight:
         torch.testing.assert_close(straight[name], resumed[name], rtol=0, atol=0)
+
+
+@pytest.mark.usefixtures("cpu_bf16_hardware")
+def test_a_resumed_mixed_cosine_bf16_run_ends_with_the_uninterrupted_weights(tmp_path, monkeypatch):
+    """The schedule and the mixed plan pick up at the step where the run stopped."""
+    settings = YnetSettings(**SETTINGS, mix_scenes=True, lr_schedule="cosine", bf16=True)
+    assert_resumes_to_the_uninterrupted_weights(settings, tmp_path, monkeypatch)
+
+
+def test_a_resumed_run_keeps_the_trajectory_decoders_own_rate(tmp_path, monkeypatch):
+    settings = YnetSettings(**SETTINGS, lr_schedule="cosine", trajectory_lr_scale=3.0)
+    assert_resumes_to_the_uninterrupted_weights(settings, tmp_path, monkeypatch)

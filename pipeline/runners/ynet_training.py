@@ -105,6 +105,10 @@ class YnetSettings:
     lr_schedule: str = "constant"
     """'constant', or 'cosine': the learning rate falls from `learning_rate` to 0 along a half
     cosine over the run's steps (a pure function of the step, so a resumed run follows it too)."""
+    trajectory_lr_scale: float = 1.0
+    """Multiplies the trajectory decoder's learning rate (schedule included); 1 = one rate for the
+    whole model, as the authors. A short-term Y-net on crops learns its paths more slowly than its
+    goals (README: its paths lose to straight lines towards the same goals)."""
 
     def __post_init__(self):
         if not 0 < self.resize <= 1:
@@ -121,6 +125,8 @@ class YnetSettings:
             raise ValueError("steps_per_epoch must be >= 0 (0 = every batch)")
         if self.mix_scenes and not self.crop:
             raise ValueError("mix_scenes needs crop > 0 (whole scenes differ in size)")
+        if self.trajectory_lr_scale <= 0:
+            raise ValueError(f"trajectory_lr_scale must be positive, got {self.trajectory_lr_scale}")
         if self.lr_schedule not in LR_SCHEDULES:
             raise ValueError(f"lr_schedule must be one of {LR_SCHEDULES}, got {self.lr_schedule!r}")
         if self.crop < 0 or self.crop % 32 or (self.crop and self.distance_norm == "map"):
@@ -255,6 +261,18 @@ def scheduled_learning_rate(settings: YnetSettings, epoch: int, step: int, steps
     return settings.learning_rate * 0.5 * (1.0 + math.cos(math.pi * progress))
 
 
+def optimizer_groups(model: YNet, settings: YnetSettings) -> list[dict]:
+    """Adam's parameter groups, each with the factor `lr_scale` on the scheduled rate: one group
+    (as ever, so older checkpoints' optimiser states still load) unless the trajectory decoder
+    has a rate of its own."""
+    if settings.trajectory_lr_scale == 1.0:
+        return [{"params": list(model.parameters()), "lr_scale": 1.0}]
+    trajectory = {id(p) for p in model.trajectory_decoder.parameters()}
+    return [{"params": [p for p in model.parameters() if id(p) not in trajectory], "lr_scale": 1.0},
+            {"params": list(model.trajectory_decoder.parameters()),
+             "lr_scale": settings.trajectory_lr_scale}]
+
+
 def concat_batches(batches: list[TrainingBatch]) -> TrainingBatch:
     """Batches of the same map size as one: (sum B, ...) each."""
     if len(batches) == 1:
@@ -312,8 +330,9 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
         inputs = batch.inputs
         if device.type == "cuda" or settings.bf16:
             inputs = inputs.contiguous(memory_format=torch.channels_last)
+        rate = scheduled_learning_rate(settings, epoch, step, len(plan), epochs)
         for group in optimizer.param_groups:
-            group["lr"] = scheduled_learning_rate(settings, epoch, step, len(plan), epochs)
+            group["lr"] = rate * group.get("lr_scale", 1.0)
         with autocast(device, settings.bf16):
             goal_logits, trajectory_logits = model(inputs, batch.waypoint_maps)
         loss = ynet_loss(goal_logits.float(), trajectory_logits.float(), batch.target,
@@ -330,7 +349,7 @@ RESUMABLE_SETTINGS = ("epochs", "threads")  # may change between an interrupted 
 # checkpoints still resume.
 ADDED_SETTINGS = {"semantic_classes": 6, "steps_per_epoch": 0, "head_bias": None,
                   "distance_gain": 1.0, "crop": 0, "crop_lead_steps": 0.0, "mix_scenes": False,
-                  "bf16": False, "lr_schedule": "constant"}
+                  "bf16": False, "lr_schedule": "constant", "trajectory_lr_scale": 1.0}
 
 
 def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str, np.ndarray],
@@ -408,7 +427,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     if initial_weights is not None:
         model.load_state_dict(initial_weights)
     model = conv_layout(model, device)
-    optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
+    optimizer = torch.optim.Adam(optimizer_groups(model, settings), lr=settings.learning_rate)
     rng = np.random.default_rng(settings.seed)
     train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize, device)
     val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize, device)
