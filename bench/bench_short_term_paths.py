@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_paths.py`
+from pipeline.harness.metrics import step_errors, window_errors
 from pipeline.runners.short_term import ynet_options
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings
 
@@ -29,14 +30,6 @@ def straight_paths(last_observed: np.ndarray, goals: np.ndarray, n_future: int) 
     fractions = np.arange(1, n_future + 1) / n_future  # (n_f,)
     start = last_observed[:, None, None]  # (N, 1, 1, 2)
     return start + (goals[:, :, None] - start) * fractions[None, None, :, None]
-
-
-def best_path_step_errors(paths: np.ndarray, truth: np.ndarray) -> np.ndarray:
-    """(N, K, n_f, 2) paths, (N, n_f, 2) truth -> (N, n_f): the errors of each window's best path
-    on ADE (mean over steps), per step."""
-    errors = np.linalg.norm(paths - truth[:, None], axis=-1)  # (N, K, n_f)
-    best = errors.mean(-1).argmin(-1)  # (N,)
-    return errors[np.arange(len(errors)), best]
 
 
 def main() -> None:
@@ -54,13 +47,15 @@ def main() -> None:
         stage.eval_params(), len(val), f"Y-net K_e={args.k}", settings.crop, settings.crop_lead_steps)
     seconds = time.perf_counter() - began
     lines = straight_paths(val.past[:, -1], sampled.goals, val.future.shape[1])
-    goal_errors = np.linalg.norm(sampled.goals - val.future[:, None, -1], axis=-1)  # (N, K)
+    rows = np.arange(len(val))
     print(f"{args.dataset}: {len(val)} val windows, K = {args.k} (TTST T = {stage.temperature}, "
           f"threshold {stage.rel_threshold}, seed {stage.seed}), original pixels, {seconds:.0f} s")
-    print(f"  goals: FDE (best of K) {goal_errors.min(-1).mean():6.2f}")
+    goals_fde = window_errors(sampled.paths, val.future, sampled.goals).fde  # (N,) as scored
+    print(f"  goals: FDE (best of K) {goals_fde.mean():6.2f}")
     for name, paths in (("Y-net paths", sampled.paths), ("straight lines", lines)):
-        steps = best_path_step_errors(paths, val.future)
-        print(f"  {name:15s} ADE (best of K) {steps.mean():6.2f}  per step of the best: "
+        best = window_errors(paths, val.future)  # its best_ade_sample: the best path on ADE
+        steps = step_errors(paths, val.future)[rows, best.best_ade_sample]  # (N, n_f)
+        print(f"  {name:15s} ADE (best of K) {best.ade.mean():6.2f}  per step of the best: "
               + " ".join(f"{v:5.1f}" for v in steps.mean(0)))
     ends = np.linalg.norm(sampled.paths[:, :, -1] - sampled.goals, axis=-1)
     print(f"  Y-net paths end {ends.mean():.2f} px from the goal they were given (mean over all K)")

@@ -160,9 +160,10 @@ def assert_resumes_to_the_uninterrupted_weights(settings: YnetSettings, tmp_path
 
     straight = run(tmp_path / "a")
     steps = []
+    steps_an_epoch = len(epoch_plan(scenes(), settings, np.random.default_rng(settings.seed)))
     real_loss = ynet_training.ynet_loss
     monkeypatch.setattr(ynet_training, "ynet_loss", lambda *a, **k: steps.append(1) or real_loss(*a, **k))
-    budget = Preemption(max_minutes=1, clock=lambda: 120.0 * (len(steps) >= 6 + 2))  # in epoch 2: 6 or 7 steps an epoch
+    budget = Preemption(max_minutes=1, clock=lambda: 120.0 * (len(steps) >= steps_an_epoch + 2))  # 2 into epoch 2
     with budget, pytest.raises(StopRequested):
         run(tmp_path / "b", budget)
     monkeypatch.undo()
