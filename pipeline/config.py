@@ -950,6 +950,20 @@ class YnetTraining:
         return {key: value for key, value in dataclasses.asdict(self).items() if value is not None}
 
 
+@dataclass(frozen=True)
+class YnetTrainingByBenchmark:
+    """`YnetTraining` for each short-term benchmark: a departure chosen on one benchmark's
+    validation windows need not help the other (SDD in pixels, ETH/UCY's folds in metres)."""
+
+    sdd: YnetTraining
+    ethucy: YnetTraining
+
+    def of(self, benchmark: str) -> YnetTraining:
+        if benchmark not in BENCHMARKS:
+            raise ValueError(f"unknown benchmark {benchmark!r}; known: {list(BENCHMARKS)}")
+        return getattr(self, benchmark)
+
+
 @dataclass
 class ShortTermModelsParams:
     """Section `short_term_models.<profile>` of params.yaml."""
@@ -958,8 +972,9 @@ class ShortTermModelsParams:
     """Model (ynet, sgan, pecnet) -> benchmark (sdd, ethucy: each fold) -> training epochs."""
     ynet_steps_per_epoch: int
     """Y-net optimiser steps per epoch, about (windows drawn afresh each epoch); 0 = every window."""
-    ynet_training: YnetTraining
-    """How Y-net trains here, where it departs from `ynet.<profile>` (the long-term model's)."""
+    ynet_training: YnetTrainingByBenchmark
+    """How Y-net trains on each benchmark, where it departs from `ynet.<profile>` (the long-term
+    model's)."""
     val_windows: int
     """Validation windows that select the epoch (a fixed seeded sample); 0 = all of them."""
     ynet_sdd: YnetScale

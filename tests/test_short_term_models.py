@@ -27,7 +27,8 @@ from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
 from pipeline.io import IntermediateError
 from pipeline.config import (DATASETS, CwsParams, EvalParams, ShortTermModelsParams, TtstParams,
-                             YnetTraining, load_profile, read_params)
+                             YnetTraining, YnetTrainingByBenchmark, load_profile,
+                             read_params)
 from pipeline.data.semantic_maps import quantise
 from pipeline.data.short_term import (MAP_CLASSES, EthUcySceneInfo, ethucy_scene_image,
                                       load_ethucy_scenes)
@@ -233,7 +234,8 @@ def test_ynet_training_overrides_the_long_term_models_only_where_set():
     for training, rate, batch, scale in ((YnetTraining(learning_rate=2e-3), 2e-3, 2, 1.0),
                                          (YnetTraining(batch_size=16, bf16=True), 3e-4, 16, 1.0),
                                          (YnetTraining(trajectory_lr_scale=3.0), 3e-4, 2, 3.0)):
-        settings = ynet_settings(base, replace(short, ynet_training=training), "eth", N_FUTURE, 3)
+        by_benchmark = YnetTrainingByBenchmark(sdd=YnetTraining(), ethucy=training)
+        settings = ynet_settings(base, replace(short, ynet_training=by_benchmark), "eth", N_FUTURE, 3)
         assert (settings.learning_rate, settings.batch_size) == (rate, batch)
         assert settings.trajectory_lr_scale == scale
         assert settings.bf16 == training.bf16 and settings.waypoints == [N_FUTURE - 1]
@@ -241,8 +243,26 @@ def test_ynet_training_overrides_the_long_term_models_only_where_set():
         with pytest.raises(ValueError, match=next(iter(bad))):
             YnetTraining(**bad)
     paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})
-    assert paper.ynet_training.overrides() == {"mix_scenes": False, "bf16": False,
-                                               "lr_schedule": "constant"}  # the authors' recipe
+    for benchmark in ("sdd", "ethucy"):  # the authors' recipe
+        assert paper.ynet_training.of(benchmark).overrides() == {
+            "mix_scenes": False, "bf16": False, "lr_schedule": "constant"}
+
+
+def test_ynet_training_departs_per_benchmark():
+    """A departure set for SDD leaves every ETH/UCY fold as it was, and the other way round."""
+    params = read_params(REPO / "params.yaml")
+    short = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "cpu"})
+    base = YnetSettings(learning_rate=3e-4, batch_size=2)
+    by_benchmark = YnetTrainingByBenchmark(sdd=YnetTraining(learning_rate=5e-4, trajectory_lr_scale=2.0),
+                                           ethucy=YnetTraining(learning_rate=1e-3))
+    split = replace(short, ynet_training=by_benchmark)
+    sdd = ynet_settings(base, split, "sdd", N_FUTURE, 3)
+    assert (sdd.learning_rate, sdd.trajectory_lr_scale) == (5e-4, 2.0)
+    for fold in ("eth", "hotel", "univ", "zara1", "zara2"):
+        settings = ynet_settings(base, split, fold, N_FUTURE, 3)
+        assert (settings.learning_rate, settings.trajectory_lr_scale) == (1e-3, 1.0)
+    with pytest.raises(ValueError, match="unknown benchmark 'kitti'"):
+        by_benchmark.of("kitti")
 
 
 def test_smaller_k_is_never_better(project):

@@ -99,10 +99,10 @@ def table_path(windows: Path, dataset: str) -> Path:
 def ynet_settings(base: YnetSettings, params: ShortTermModelsParams, dataset: str, n_future: int,
                   semantic_classes: int) -> YnetSettings:
     """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale and epochs,
-    and the training departures of `ynet_training`."""
+    and the benchmark's training departures (`ynet_training.<benchmark>`)."""
     scale = params.ynet_sdd if dataset == "sdd" else params.ynet_ethucy
     return YnetSettings(**{
-        **asdict(base), **asdict(scale), **params.ynet_training.overrides(),
+        **asdict(base), **asdict(scale), **params.ynet_training.of(benchmark_of(dataset)).overrides(),
         "waypoints": [n_future - 1], "epochs": params.epochs["ynet"][benchmark_of(dataset)],
         "semantic_classes": semantic_classes, "steps_per_epoch": params.ynet_steps_per_epoch})
 

@@ -1,14 +1,14 @@
 """Stage `train_short_term_ynet@<dataset>`: Y-net trained on one short-term benchmark (paper Tables 1-2).
 
 `ynet.<profile>` with the short-term goal-only waypoint and the benchmark's map scale, epochs and
-training departures (`ynet_training`) from `short_term_models.<profile>`
+training departures (`ynet_training.<benchmark>`) from `short_term_models.<profile>`
 (`pipeline.runners.short_term.ynet_settings`); the epoch is selected on a seeded sample of
 `val_windows` validation windows. Writes the checkpoint folder (resumable; SIGTERM / SIGINT or
 `runtime.max_minutes` checkpoint mid-epoch and exit 143 / 130 / 75) and the training record; a
 dataset outside `ynet_datasets` gets the not-run record (and no checkpoint folder, as before the
 split). Params: `profile`, `runtime.device`, `runtime.max_minutes`, `short_term.n_past`,
 `short_term.n_future`, `ynet.<profile>`, `short_term_models.<profile>`: `epochs.ynet`,
-`ynet_steps_per_epoch`, `ynet_training`, `val_windows`, `ynet_sdd` / `ynet_ethucy`,
+`ynet_steps_per_epoch`, `ynet_training.<benchmark>`, `val_windows`, `ynet_sdd` / `ynet_ethucy`,
 `ynet_datasets`, `why_subset`, `seed`.
 
     python -m pipeline.stages.train_short_term_ynet --dataset eth --windows data/short_term \
