@@ -935,6 +935,12 @@ class YnetTraining:
     """constant | cosine (to 0 over the run)."""
     trajectory_lr_scale: float | None = None
     """Factor on the trajectory decoder's learning rate; null (or absent) = one rate, as the authors."""
+    weight_average_decay: float | None = None
+    """Validate and keep a moving average of the weights with this decay; null (or absent) = the
+    weights as trained, as the authors."""
+    grad_clip_norm: float | None = None
+    """Clip each step's gradients to this global L2 norm; null (or absent) = no clipping, as the
+    authors."""
 
     def __post_init__(self):
         if self.learning_rate is not None and self.learning_rate <= 0:

@@ -1,6 +1,6 @@
 """How Y-net training batches are drawn and stepped: windows of several scenes mixed in one batch of
-agent crops, the cosine learning-rate schedule, the trajectory decoder's own rate, and bfloat16
-autocast on the CPU."""
+agent crops, the cosine learning-rate schedule, the trajectory decoder's own rate, the moving
+average of the weights, gradient clipping, and bfloat16 autocast on the CPU."""
 
 import math
 
@@ -12,8 +12,9 @@ from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.preemption import NEVER, Preemption, StopRequested
 from pipeline.runners import ynet_training
-from pipeline.runners.ynet_training import (YnetSettings, epoch_plan, optimizer_groups, plan_batch,
-                                            scheduled_learning_rate, train, train_epoch)
+from pipeline.runners.ynet_training import (YnetSettings, average_weights, epoch_plan,
+                                            optimizer_groups, plan_batch, scheduled_learning_rate,
+                                            train, train_epoch)
 from ynet.loss import ynet_loss
 from ynet.model import YNet
 
@@ -142,7 +143,10 @@ def test_the_trajectory_decoder_steps_at_its_own_rate_and_the_rest_as_before():
 
 @pytest.mark.parametrize("bad, match", [({"mix_scenes": True, "crop": 0}, "mix_scenes"),
                                         ({"lr_schedule": "linear"}, "lr_schedule"),
-                                        ({"trajectory_lr_scale": 0.0}, "trajectory_lr_scale")])
+                                        ({"trajectory_lr_scale": 0.0}, "trajectory_lr_scale"),
+                                        ({"weight_average_decay": 1.0}, "weight_average_decay"),
+                                        ({"weight_average_decay": -0.1}, "weight_average_decay"),
+                                        ({"grad_clip_norm": -1.0}, "grad_clip_norm")])
 def test_settings_that_cannot_work_are_refused(bad, match):
     with pytest.raises(ValueError, match=match):
         YnetSettings(**{**SETTINGS, **bad})
@@ -156,7 +160,8 @@ def assert_resumes_to_the_uninterrupted_weights(settings: YnetSettings, tmp_path
     def run(folder, preemption=NEVER):
         train(arrays({"gates_0": 5, "hyang_1": 7}, "train", 0), val, MAPS, SIZES, settings, N_PAST,
               folder / "last.pt", folder / "best.pt", folder / "history.csv", preemption=preemption)
-        return torch.load(folder / "last.pt", weights_only=True)["state"]["model"]
+        state = torch.load(folder / "last.pt", weights_only=True)["state"]
+        return {**state["model"], **{f"averaged.{k}": v for k, v in state.get("averaged", {}).items()}}
 
     straight = run(tmp_path / "a")
     steps = []
@@ -182,3 +187,82 @@ def test_a_resumed_mixed_cosine_bf16_run_ends_with_the_uninterrupted_weights(tmp
 def test_a_resumed_run_keeps_the_trajectory_decoders_own_rate(tmp_path, monkeypatch):
     settings = YnetSettings(**SETTINGS, lr_schedule="cosine", trajectory_lr_scale=3.0)
     assert_resumes_to_the_uninterrupted_weights(settings, tmp_path, monkeypatch)
+
+
+def test_the_moving_average_follows_every_step_and_leaves_training_alone():
+    decay = 0.6
+    settings = YnetSettings(**SETTINGS, weight_average_decay=decay)
+    train_scenes = scenes()
+    plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))[:3]
+    trained = {}
+    for averaging in (False, True):
+        torch.manual_seed(0)
+        model = YNet(settings.model_config(N_PAST, N_FUTURE))
+        optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
+        averaged = average_weights(model, decay) if averaging else None
+        expected, losses = None, []
+        for step in range(1, len(plan) + 1):  # one step a call: the weights after each
+            train_epoch(model, optimizer, train_scenes, settings, plan[:step], 1, losses,
+                        averaged=averaged)
+            weights = {n: p.detach().clone() for n, p in model.named_parameters()}
+            expected = weights if expected is None else {
+                n: decay * expected[n] + (1 - decay) * weights[n] for n in weights}
+        trained[averaging] = weights
+    for name, value in averaged.module.named_parameters():
+        torch.testing.assert_close(value, expected[name])
+    assert any((expected[n] - trained[True][n]).abs().max() > 0 for n in expected)  # it averages
+    for name in trained[False]:  # the optimiser's path is the same with or without the average
+        torch.testing.assert_close(trained[True][name], trained[False][name], rtol=0, atol=0)
+
+
+def test_a_resumed_run_keeps_the_moving_average(tmp_path, monkeypatch):
+    settings = YnetSettings(**SETTINGS, weight_average_decay=0.5)
+    assert_resumes_to_the_uninterrupted_weights(settings, tmp_path, monkeypatch)
+
+
+def test_validation_scores_the_average_and_best_pt_keeps_it(tmp_path, monkeypatch):
+    settings = YnetSettings(**SETTINGS, weight_average_decay=0.5)
+    scored = []
+
+    def validate(model, scenes, settings):  # every epoch better than the last: best.pt is the last
+        scored.append({name: value.detach().clone() for name, value in model.state_dict().items()})
+        return {"val_ade": 10.0 - len(scored), "val_fde": 1.0}
+
+    monkeypatch.setattr(ynet_training, "validate", validate)
+    torch.set_num_threads(1)
+    train(arrays({"gates_0": 5, "hyang_1": 7}, "train", 0), arrays({"gates_0": 2}, "val", 1), MAPS,
+          SIZES, settings, N_PAST, tmp_path / "last.pt", tmp_path / "best.pt", tmp_path / "history.csv")
+    state = torch.load(tmp_path / "last.pt", weights_only=True)["state"]
+    best = torch.load(tmp_path / "best.pt", weights_only=True)["model"]
+    average = {name.removeprefix("module."): value for name, value in state["averaged"].items()
+               if name.startswith("module.")}
+    assert len(scored) == settings.epochs and set(best) == set(average) == set(scored[-1])
+    for name, value in best.items():
+        torch.testing.assert_close(value, average[name], rtol=0, atol=0)
+        torch.testing.assert_close(value, scored[-1][name], rtol=0, atol=0)
+    assert any((best[n] - state["model"][n]).abs().max() > 0 for n in best)  # not the raw weights
+
+
+def test_clipping_bounds_the_gradient_norm_each_step_takes():
+    def step_norms(clip: float) -> list[float]:
+        settings = YnetSettings(**SETTINGS, grad_clip_norm=clip)
+        torch.manual_seed(0)
+        model = YNet(settings.model_config(N_PAST, N_FUTURE))
+        norms = []
+
+        class Recording(torch.optim.Adam):
+            def step(self, closure=None):
+                norms.append(float(torch.linalg.vector_norm(
+                    torch.stack([torch.linalg.vector_norm(p.grad) for p in model.parameters()]))))
+                return super().step(closure)
+
+        train_scenes = scenes()
+        plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))[:3]
+        train_epoch(model, Recording(model.parameters(), lr=1e-3), train_scenes, settings, plan, 1, [])
+        return norms
+
+    free = step_norms(0.0)
+    clip = min(free) / 2  # below every step's norm: each one is clipped to it
+    assert max(free) > clip
+    assert step_norms(clip) == pytest.approx([clip] * len(free), rel=1e-4)
+    assert step_norms(max(free) * 2) == free  # above them all: the same steps as without
