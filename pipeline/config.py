@@ -950,6 +950,11 @@ class YnetTraining:
                              f"{self.trajectory_lr_scale}")
         if self.batch_size is not None and self.batch_size < 1:
             raise ValueError(f"batch_size must be positive or null, got {self.batch_size}")
+        if self.weight_average_decay is not None and not 0 <= self.weight_average_decay < 1:
+            raise ValueError(f"weight_average_decay must be in [0, 1) or null, got "
+                             f"{self.weight_average_decay}")
+        if self.grad_clip_norm is not None and self.grad_clip_norm < 0:
+            raise ValueError(f"grad_clip_norm must be >= 0 or null, got {self.grad_clip_norm}")
 
     def overrides(self) -> dict:
         """The `YnetSettings` fields this section sets."""

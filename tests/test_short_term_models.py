@@ -239,7 +239,8 @@ def test_ynet_training_overrides_the_long_term_models_only_where_set():
         assert (settings.learning_rate, settings.batch_size) == (rate, batch)
         assert settings.trajectory_lr_scale == scale
         assert settings.bf16 == training.bf16 and settings.waypoints == [N_FUTURE - 1]
-    for bad in ({"learning_rate": 0.0}, {"batch_size": 0}, {"trajectory_lr_scale": -1.0}):
+    for bad in ({"learning_rate": 0.0}, {"batch_size": 0}, {"trajectory_lr_scale": -1.0},
+                {"weight_average_decay": 1.0}, {"grad_clip_norm": -1.0}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             YnetTraining(**bad)
     paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})

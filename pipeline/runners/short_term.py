@@ -100,10 +100,11 @@ def ynet_settings(base: YnetSettings, params: ShortTermModelsParams, dataset: st
                   semantic_classes: int) -> YnetSettings:
     """`ynet.<profile>` with the short-term goal-only waypoint, this benchmark's scale and epochs,
     and the benchmark's training departures (`ynet_training.<benchmark>`)."""
-    scale = params.ynet_sdd if dataset == "sdd" else params.ynet_ethucy
+    benchmark = benchmark_of(dataset)
+    scale = params.ynet_sdd if benchmark == "sdd" else params.ynet_ethucy
     return YnetSettings(**{
-        **asdict(base), **asdict(scale), **params.ynet_training.of(benchmark_of(dataset)).overrides(),
-        "waypoints": [n_future - 1], "epochs": params.epochs["ynet"][benchmark_of(dataset)],
+        **asdict(base), **asdict(scale), **params.ynet_training.of(benchmark).overrides(),
+        "waypoints": [n_future - 1], "epochs": params.epochs["ynet"][benchmark],
         "semantic_classes": semantic_classes, "steps_per_epoch": params.ynet_steps_per_epoch})
 
 
