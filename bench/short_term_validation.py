@@ -31,6 +31,7 @@ class TrainedOnValidation:
     stage: ShortTermModelsParams  # short_term_models.<profile>
     val: WindowArrays  # original pixels
     scenes: list[SceneWindows]  # val grouped by scene, in the checkpoint's resized pixels
+    scenes_info: dict | None = None  # ETH/UCY: scene name -> EthUcySceneInfo (homographies)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -71,4 +72,4 @@ def load(dataset: str, checkpoint: Path, windows: Path, sdd: Path, sample: int) 
         maps = load_semantic_maps(windows / ETHUCY_SCENES)
         sizes = {name: info.image_hw for name, info in scenes_info.items()}
     return TrainedOnValidation(model, settings, stage, val,
-                               group_by_scene(val, maps, sizes, settings.resize))
+                               group_by_scene(val, maps, sizes, settings.resize), scenes_info)

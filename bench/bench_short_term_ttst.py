@@ -1,0 +1,75 @@
+"""Which TTST settings suit a trained short-term Y-net, on its validation windows?
+
+Not a test: prints numbers. The authors' short-term TTST (temperature 1.0, relative threshold
+0.01) was tuned for their fully trained model; a `cpu` model trained on 1/200 of the samples has
+other heatmaps. On a fixed seeded sample of the benchmark's *validation* windows (never the test
+set; 0 = all of them) it samples K goals for every temperature x threshold of the grid, all in one
+pass (each batch is encoded once; every setting draws with the same seed, as scoring would), and
+prints best-of-K ADE / FDE in the benchmark's scoring unit (original pixels; metres for ETH/UCY)
+beside the profile's own setting. A setting is worth adopting only if it wins on validation for
+more than one training seed.
+
+    python bench/bench_short_term_ttst.py --dataset sdd --windows-sample 0 \
+        --temperatures 0.5 1 2 --thresholds 0.001 0.01 0.05
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import time
+
+import numpy as np
+
+import short_term_validation  # bench/: run as `python bench/bench_short_term_ttst.py`
+from pipeline.config import CwsParams, TtstParams
+from pipeline.harness.metrics import window_errors
+from pipeline.runners.short_term import to_metres, unit_of
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options
+
+
+def ttst_grid(temperatures: list[float], thresholds: list[float],
+              profile: tuple[float, float]) -> list[tuple[float, float]]:
+    """Every (temperature, threshold) of the grid, the profile's own first, each once."""
+    grid = [profile] + list(itertools.product(temperatures, thresholds))
+    return list(dict.fromkeys(grid))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    short_term_validation.add_arguments(parser)
+    parser.add_argument("--k", type=int, default=20)
+    parser.add_argument("--temperatures", type=float, nargs="+", default=[0.5, 1.0, 2.0])
+    parser.add_argument("--thresholds", type=float, nargs="+", default=[0.01])
+    args = parser.parse_args()
+    trained = short_term_validation.load_from_arguments(args, "bench_short_term_ttst")
+    if trained is None:
+        return
+    stage, val, settings = trained.stage, trained.val, trained.settings
+    grid = ttst_grid(args.temperatures, args.thresholds, (stage.temperature, stage.rel_threshold))
+    samplings = [Sampling(sampling_options(args.k, 1, TtstParams(temperature=t, rel_threshold=r),
+                                           CwsParams(), use_ttst=True, use_cws=False), stage.seed)
+                 for t, r in grid]
+    began = time.perf_counter()
+    sampled, _ = predict_samplings(trained.model, trained.scenes, settings, samplings,
+                                   stage.eval_params(), len(val), f"Y-net K_e={args.k}",
+                                   settings.crop, settings.crop_lead_steps)
+    seconds = time.perf_counter() - began
+    unit = unit_of(args.dataset)
+    future = val.future
+    if unit == "m":
+        future = to_metres(val.future, val.scene_id, trained.scenes_info)
+    print(f"{args.dataset}: {len(val)} val windows, K = {args.k}, seed {stage.seed}, "
+          f"{len(grid)} TTST settings in {seconds:.0f} s; best of K ADE / FDE ({unit})")
+    for (temperature, threshold), drawn in zip(grid, sampled):
+        paths = drawn.paths
+        if unit == "m":
+            paths = to_metres(paths, val.scene_id, trained.scenes_info)
+        errors = window_errors(paths, future)
+        mark = "  (profile)" if (temperature, threshold) == grid[0] else ""
+        print(f"  T = {temperature:<5g} threshold {threshold:<7g} "
+              f"{errors.ade.mean():7.3f} / {errors.fde.mean():7.3f}{mark}")
+
+
+if __name__ == "__main__":
+    main()
