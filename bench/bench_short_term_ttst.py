@@ -16,16 +16,16 @@ more than one training seed.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import time
 
 import numpy as np
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_ttst.py`
-from pipeline.config import CwsParams, TtstParams
 from pipeline.harness.metrics import window_errors
-from pipeline.runners.short_term import to_metres, unit_of
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options
+from pipeline.runners.short_term import to_metres, unit_of, ynet_options
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings
 
 
 def ttst_grid(temperatures: list[float], thresholds: list[float],
@@ -47,9 +47,9 @@ def main() -> None:
         return
     stage, val, settings = trained.stage, trained.val, trained.settings
     grid = ttst_grid(args.temperatures, args.thresholds, (stage.temperature, stage.rel_threshold))
-    samplings = [Sampling(sampling_options(args.k, 1, TtstParams(temperature=t, rel_threshold=r),
-                                           CwsParams(), use_ttst=True, use_cws=False), stage.seed)
-                 for t, r in grid]
+    samplings = [Sampling(ynet_options(dataclasses.replace(stage, temperature=t, rel_threshold=r),
+                                       args.k), stage.seed)
+                 for t, r in grid]  # scoring's own options, the TTST pair replaced
     began = time.perf_counter()
     sampled, _ = predict_samplings(trained.model, trained.scenes, settings, samplings,
                                    stage.eval_params(), len(val), f"Y-net K_e={args.k}",

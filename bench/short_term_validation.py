@@ -31,7 +31,7 @@ class TrainedOnValidation:
     stage: ShortTermModelsParams  # short_term_models.<profile>
     val: WindowArrays  # original pixels
     scenes: list[SceneWindows]  # val grouped by scene, in the checkpoint's resized pixels
-    scenes_info: dict | None = None  # ETH/UCY: scene name -> EthUcySceneInfo (homographies)
+    scenes_info: dict | None  # ETH/UCY: scene name -> EthUcySceneInfo (homographies)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
