@@ -97,6 +97,31 @@ def test_shared_input_conv_equals_concatenated_conv():
     assert_close(out, expected, rtol=1e-5, atol=1e-5)
 
 
+def test_one_waypoint_sampled_decoder_stays_channels_last():
+    """A single conditioning map is a 1-channel tensor, NCHW and channels_last at once; the
+    K-sample trajectory decoder must still run (and return) channels_last when the encoder did,
+    with the numbers of one sample at a time."""
+    torch.manual_seed(0)
+    one_waypoint = YNetConfig(obs_len=3, pred_len=6, semantic_classes=2,
+                              encoder_channels=(8, 16, 16, 16, 16),
+                              decoder_channels=(16, 16, 16, 16, 8), waypoints=(5,))
+    model = YNet(one_waypoint).eval()
+    x = torch.rand(2, one_waypoint.in_channels, 64, 64).contiguous(memory_format=torch.channels_last)
+    maps = torch.rand(2, 3, 1, 64, 64)  # (B, K, n_w, H, W)
+    seen = []
+    hook = model.trajectory_decoder.blocks[-1].conv2.register_forward_hook(
+        lambda module, inputs, output: seen.append(inputs[0]))
+    with torch.inference_mode():
+        features = model.encode(x)
+        batched = model.predict_trajectory(features, maps)  # (B, K, n_f, H, W)
+        hook.remove()
+        for k in range(3):
+            assert_close(batched[:, k], model.predict_trajectory(features, maps[:, k]),
+                         rtol=1e-4, atol=1e-5)
+    assert seen[0].shape[0] == 6 and seen[0].is_contiguous(memory_format=torch.channels_last)
+    assert not seen[0].is_contiguous()
+
+
 def test_channels_last_matches_contiguous():
     torch.manual_seed(0)
     model = YNet(TINY)
