@@ -78,24 +78,17 @@ def shared_input_conv(
     K samples per window (B*K, ...), the share of `shared` is computed once per window and broadcast
     over the K samples. This is what makes the trajectory decoder cheap to run for many sampled goals:
     the encoder skips are the same for all of them.
-
-    The K-sample part runs in `shared`'s memory format. A single conditioning map (one waypoint,
-    the short-term goal) is a 1-channel tensor, which is NCHW and channels_last at once, and torch
-    would run its conv in NCHW; from there the whole decoder would stay NCHW (about 1.5x slower on
-    CPU) and pay a layout copy at every skip.
     """
     others = [t for t in (before, after) if t is not None]
     if all(t.shape[0] == shared.shape[0] for t in others):  # one sample per window: a plain conv
         return conv(torch.cat([t for t in (before, shared, after) if t is not None], dim=1))
-    layout = memory_format(shared)
     lo = 0 if before is None else before.shape[1]
     hi = lo + shared.shape[1]
     w = conv.weight
     w_shared = w[:, lo:hi].contiguous()
     shared_term = F.conv2d(shared, w_shared, conv.bias, padding=conv.padding)  # (B, C, h, w)
     w_others = torch.cat([w[:, :lo], w[:, hi:]], dim=1)
-    sampled = torch.cat(others, dim=1).contiguous(memory_format=layout)  # (B*K, c, h, w)
-    out = F.conv2d(sampled, w_others, padding=conv.padding).contiguous(memory_format=layout)
+    out = F.conv2d(torch.cat(others, dim=1), w_others, padding=conv.padding)  # (B*K, C, h, w)
     out.unflatten(0, (shared.shape[0], -1)).add_(shared_term.unsqueeze(1))  # (B, K, C, h, w), in place
     return out
 
@@ -204,7 +197,11 @@ class Decoder(nn.Module):
             raise ValueError(f"this decoder expects {self.n_cond} conditioning channels")
         conds = [None] * len(features)
         if cond is not None:
-            conds[0] = cond.contiguous(memory_format=memory_format(features[0]))
+            # Restrided, not `.contiguous()`: a 1-channel map (one waypoint) counts as contiguous
+            # in both layouts, and torch picks a conv's layout from its input's strides, so the
+            # K-sample decoder would fall back to NCHW (about 1.5x slower on CPU) with a copy at
+            # every skip.
+            conds[0] = torch.empty_like(cond, memory_format=memory_format(features[0])).copy_(cond)
             for i in range(1, len(features)):
                 conds[i] = F.avg_pool2d(conds[i - 1], 2)  # (B*K, n_w, H / 2^i, W / 2^i)
         x = F.relu(shared_input_conv(self.centre1, features[-1], after=conds[-1]), inplace=True)
