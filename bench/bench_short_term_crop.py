@@ -43,7 +43,7 @@ def main() -> None:
         return
     model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
                                             trained.val, trained.scenes)
-    options = ynet_options(settings, args.k)  # as evaluate_short_term_ynet samples
+    options = ynet_options(settings, args.dataset, args.k)  # as evaluate_short_term_ynet samples
     eval_params = settings.eval_params()  # batch, chunk and bf16 as the stage scores
     print(f"{args.dataset}: {len(val)} val windows, K_e = {args.k}, resize {loaded.resize:.4f}, "
           f"trained on crop {loaded.crop}, lead {loaded.crop_lead_steps} steps, load average "

@@ -5,8 +5,9 @@ Not a test: prints numbers. The authors' short-term TTST (temperature 1.0, relat
 other heatmaps. On a fixed seeded sample of the benchmark's *validation* windows (never the test
 set; 0 = all of them) it samples K goals for every temperature x threshold of the grid, all in one
 pass (each batch is encoded once; every setting draws with the same seed, as scoring would), and
-prints best-of-K ADE / FDE in the benchmark's scoring unit (original pixels; metres for ETH/UCY)
-beside the profile's own setting. A setting is worth adopting only if it wins on validation for
+prints best-of-K ADE / FDE as scoring computes them (FDE of the sampled goals) in the benchmark's
+unit (original pixels; metres for ETH/UCY) beside the profile's own setting, averaged over
+`--rounds` sampling seeds. A setting is worth adopting only if it wins on validation for
 more than one training seed.
 
     python bench/bench_short_term_ttst.py --dataset sdd --windows-sample 0 \
@@ -24,7 +25,7 @@ import numpy as np
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_ttst.py`
 from pipeline.harness.metrics import window_errors
-from pipeline.runners.short_term import to_metres, unit_of, ynet_options
+from pipeline.runners.short_term import benchmark_of, to_metres, unit_of, ynet_options
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings
 
 
@@ -41,35 +42,41 @@ def main() -> None:
     parser.add_argument("--k", type=int, default=20)
     parser.add_argument("--temperatures", type=float, nargs="+", default=[0.5, 1.0, 2.0])
     parser.add_argument("--thresholds", type=float, nargs="+", default=[0.01])
+    parser.add_argument("--rounds", type=int, default=1,
+                        help="sampling seeds per setting (seed, seed + 1, ...), errors averaged")
     args = parser.parse_args()
     trained = short_term_validation.load_from_arguments(args, "bench_short_term_ttst")
     if trained is None:
         return
     stage, val, settings = trained.stage, trained.val, trained.settings
-    grid = ttst_grid(args.temperatures, args.thresholds, (stage.temperature, stage.rel_threshold))
-    samplings = [Sampling(ynet_options(dataclasses.replace(stage, temperature=t, rel_threshold=r),
-                                       args.k), stage.seed)
-                 for t, r in grid]  # scoring's own options, the TTST pair replaced
+    benchmark = benchmark_of(args.dataset)
+    grid = ttst_grid(args.temperatures, args.thresholds,
+                     (stage.temperature, stage.rel_threshold[benchmark]))
+    seeds = [stage.seed + r for r in range(args.rounds)]
+    samplings = [Sampling(ynet_options(dataclasses.replace(
+        stage, temperature=t, rel_threshold={**stage.rel_threshold, benchmark: r}), args.dataset,
+        args.k), seed) for t, r in grid for seed in seeds]  # scoring's options, the TTST pair replaced
     began = time.perf_counter()
     sampled, _ = predict_samplings(trained.model, trained.scenes, settings, samplings,
                                    stage.eval_params(), len(val), f"Y-net K_e={args.k}",
                                    settings.crop, settings.crop_lead_steps)
     seconds = time.perf_counter() - began
     unit = unit_of(args.dataset)
-    future = val.future
-    if unit == "m":
-        future = to_metres(val.future, val.scene_id, trained.scenes_info)
-    print(f"{args.dataset}: {len(val)} val windows, K = {args.k}, seed {stage.seed}, "
-          f"{len(grid)} TTST settings in {seconds:.0f} s; best of K ADE / FDE ({unit})")
-    for (temperature, threshold), drawn in zip(grid, sampled):
-        paths = drawn.paths
-        if unit == "m":
-            paths = to_metres(paths, val.scene_id, trained.scenes_info)
-        errors = window_errors(paths, future)
-        mark = "  (profile)" if (temperature, threshold) == grid[0] else ""
-        print(f"  T = {temperature:<5g} threshold {threshold:<7g} "
-              f"{errors.ade.mean():7.3f} / {errors.fde.mean():7.3f}{mark}")
 
+    def in_unit(points: np.ndarray) -> np.ndarray:  # (N, ..., 2) original pixels -> unit
+        return to_metres(points, val.scene_id, trained.scenes_info) if unit == "m" else points
+
+    future = in_unit(val.future)
+    print(f"{args.dataset}: {len(val)} val windows, K = {args.k}, {len(grid)} TTST settings x "
+          f"{len(seeds)} sampling seeds from {stage.seed} in {seconds:.0f} s; best of K ADE / FDE "
+          f"({unit}; FDE of the sampled goals, as scored), mean over the seeds")
+    for number, (temperature, threshold) in enumerate(grid):
+        drawn = sampled[number * len(seeds):(number + 1) * len(seeds)]
+        errors = [window_errors(in_unit(d.paths), future, in_unit(d.goals)) for d in drawn]
+        ade = np.mean([e.ade.mean() for e in errors])
+        fde = np.mean([e.fde.mean() for e in errors])
+        mark = "  (profile)" if number == 0 else ""
+        print(f"  T = {temperature:<5g} threshold {threshold:<7g} {ade:7.3f} / {fde:7.3f}{mark}")
 
 if __name__ == "__main__":
     main()

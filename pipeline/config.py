@@ -996,8 +996,9 @@ class ShortTermModelsParams:
     """Shown in the report for a dataset outside `ynet_datasets`."""
     temperature: float
     """TTST temperature of the short-term setting (authors: 1.0)."""
-    rel_threshold: float
-    """TTST: goal pixels below rel_threshold * max are never sampled (authors: 0.01)."""
+    rel_threshold: dict[str, float]
+    """Benchmark (sdd, ethucy) -> TTST: goal pixels below rel_threshold * max are never sampled
+    (authors: 0.01 on both)."""
     k_sdd: list[int]
     """K values scored on SDD (Table 1: 20 and 5)."""
     k_ethucy: list[int]
@@ -1025,8 +1026,10 @@ class ShortTermModelsParams:
             raise ValueError(f"ynet_datasets: unknown dataset(s) {unknown}; known: {list(DATASETS)}")
         if not self.k_sdd or not self.k_ethucy or min(self.k_sdd + self.k_ethucy) < 1:
             raise ValueError("k_sdd and k_ethucy must be non-empty lists of positive K")
-        if self.rounds < 1 or self.temperature <= 0 or not 0 <= self.rel_threshold < 1:
-            raise ValueError("need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1")
+        if (self.rounds < 1 or self.temperature <= 0 or set(self.rel_threshold) != set(BENCHMARKS)
+                or not all(0 <= value < 1 for value in self.rel_threshold.values())):
+            raise ValueError(f"need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1 for each "
+                             f"of {list(BENCHMARKS)}, got rel_threshold {self.rel_threshold}")
         if min(self.eval_batch_size, self.eval_chunk_size) < 1:
             raise ValueError("eval_batch_size and eval_chunk_size must be positive")
 

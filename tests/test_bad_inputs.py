@@ -129,7 +129,7 @@ SHORT_TERM_MODELS = {
     "epochs": {m: {"sdd": 1, "ethucy": 1} for m in ("ynet", "sgan", "pecnet")},
     "ynet_steps_per_epoch": 0, "ynet_training": {"sdd": {}, "ethucy": {}}, "val_windows": 0,
     "ynet_sdd": SCALE, "ynet_ethucy": SCALE, "ynet_datasets": ["sdd"], "why_subset": "",
-    "temperature": 1.0, "rel_threshold": 0.01, "k_sdd": [20, 5], "k_ethucy": [20], "rounds": 1,
+    "temperature": 1.0, "rel_threshold": {"sdd": 0.01, "ethucy": 0.01}, "k_sdd": [20, 5], "k_ethucy": [20], "rounds": 1,
     "seed": 0, "eval_batch_size": 4, "eval_chunk_size": 4, "bf16": False,
 }
 IND_BENCHMARK = {"ynet_resize": 0.33, "segmentation_downsample": 3, "freeze_encoder_epochs": 0}
@@ -216,8 +216,11 @@ IND_BENCHMARK = {"ynet_resize": 0.33, "segmentation_downsample": 3, "freeze_enco
     (ShortTermModelsParams, SHORT_TERM_MODELS, {"rounds": 0},
      r"need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1"),
     (ShortTermModelsParams, SHORT_TERM_MODELS, {"temperature": 0}, r"need rounds >= 1, temperature > 0"),
-    (ShortTermModelsParams, SHORT_TERM_MODELS, {"rel_threshold": 1.0},
-     r"need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1"),
+    (ShortTermModelsParams, SHORT_TERM_MODELS, {"rel_threshold": {"sdd": 0.01, "ethucy": 1.0}},
+     r"need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1 for each of \['sdd', 'ethucy'\], "
+     r"got rel_threshold \{'sdd': 0.01, 'ethucy': 1.0\}"),
+    (ShortTermModelsParams, SHORT_TERM_MODELS, {"rel_threshold": {"sdd": 0.01}},
+     r"need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1 for each of \['sdd', 'ethucy'\]"),
     (ShortTermModelsParams, SHORT_TERM_MODELS, {"eval_chunk_size": 0},
      r"eval_batch_size and eval_chunk_size must be positive"),
     (ShortTermModelsParams, SHORT_TERM_MODELS, {"ynet_ethucy": {**SCALE, "sigma": -1}},

@@ -36,7 +36,7 @@ from pipeline.data.window_table import to_arrays
 from pipeline.data.ynet_data import window_inputs
 from pipeline.harness.baselines.common import subset
 from pipeline.runners.short_term import (load_benchmark, load_dataset, qualitative_rows, table_path,
-                                         to_metres, ynet_inputs, ynet_settings)
+                                         to_metres, ynet_inputs, ynet_options, ynet_settings)
 from pipeline.runners.ynet_scoring import (in_scene_frame, load_for_scoring, predict_scenes,
                                            qualitative, sampling_options)
 from pipeline.stages import (evaluate_short_term_baseline, evaluate_short_term_ynet,
@@ -264,6 +264,21 @@ def test_ynet_training_departs_per_benchmark():
         assert (settings.learning_rate, settings.trajectory_lr_scale) == (1e-3, 1.0)
     with pytest.raises(ValueError, match="unknown benchmark 'kitti'"):
         by_benchmark.of("kitti")
+
+
+def test_ttst_threshold_is_the_benchmarks():
+    """SDD and every ETH/UCY fold sample with their own benchmark's threshold; `paper` keeps the
+    authors' 0.01 on both."""
+    params = read_params(REPO / "params.yaml")
+    short = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "cpu"})
+    split = replace(short, rel_threshold={"sdd": 0.01, "ethucy": 0.0005})
+    assert ynet_options(split, "sdd", 20).rel_threshold == 0.01
+    for fold in ("eth", "hotel", "univ", "zara1", "zara2"):
+        options = ynet_options(split, fold, 20)
+        assert (options.rel_threshold, options.K_e, options.K_a) == (0.0005, 20, 1)
+        assert options.use_ttst and not options.use_cws
+    paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})
+    assert paper.rel_threshold == {"sdd": 0.01, "ethucy": 0.01} and paper.temperature == 1.0
 
 
 def test_smaller_k_is_never_better(project):

@@ -201,7 +201,7 @@ class Decoder(nn.Module):
             # in both layouts, and torch picks a conv's layout from its input's strides, so the
             # K-sample decoder would fall back to NCHW (about 1.5x slower on CPU) with a copy at
             # every skip.
-            conds[0] = torch.empty_like(cond, memory_format=memory_format(features[0])).copy_(cond)
+            conds[0] = cond.clone(memory_format=memory_format(features[0]))
             for i in range(1, len(features)):
                 conds[i] = F.avg_pool2d(conds[i - 1], 2)  # (B*K, n_w, H / 2^i, W / 2^i)
         x = F.relu(shared_input_conv(self.centre1, features[-1], after=conds[-1]), inplace=True)

@@ -7,7 +7,8 @@ leave-one-scene-out fold, `eth`, `hotel`, `univ`, `zara1`, `zara2` (errors in me
 n_p = 8 observed + n_f = 12 future steps at 2.5 FPS, as `short_term_windows` cut them.
 
 - Y-net, the authors' short-term configuration (`shared/reference/upstream.md`): the goal is the
-  only waypoint (step n_f - 1), TTST with temperature 1.0 and rel_threshold 0.01, no CWS, K_a = 1.
+  only waypoint (step n_f - 1), TTST with temperature 1.0 and rel_threshold 0.01 (`cpu`: its
+  own threshold per benchmark, `rel_threshold.<benchmark>`), no CWS, K_a = 1.
   Architecture, optimiser and augmentation are `ynet.<profile>`'s; map scale, Gaussian kernel and
   sigma per benchmark are `short_term_models.<profile>`'s (`ynet_sdd`, `ynet_ethucy`). ETH/UCY maps
   have 3 channels (padding, not road, road), SDD's 6.
@@ -260,23 +261,25 @@ def train_ynet(bench: Benchmark, semantic_maps, sizes, settings: YnetSettings, n
                  folder / "best.pt", folder / "history.csv", device=device, preemption=preemption)
 
 
-def ynet_options(params: ShortTermModelsParams, k: int) -> SamplingOptions:
-    """The short-term sampling at K_e = `k`: TTST, no CWS, K_a = 1 (the goal is the only
-    waypoint)."""
-    ttst = TtstParams(temperature=params.temperature, rel_threshold=params.rel_threshold)
+def ynet_options(params: ShortTermModelsParams, dataset: str, k: int) -> SamplingOptions:
+    """The short-term sampling of `dataset` at K_e = `k`: TTST (its benchmark's threshold), no
+    CWS, K_a = 1 (the goal is the only waypoint)."""
+    ttst = TtstParams(temperature=params.temperature,
+                      rel_threshold=params.rel_threshold[benchmark_of(dataset)])
     return sampling_options(k, 1, ttst, CwsParams(), use_ttst=True, use_cws=False)
 
 
 def score_ynet(model: YNet, loaded: YnetSettings, scenes: list[SceneWindows], bench: Benchmark,
-               params: ShortTermModelsParams, ks: list[int], kept: PredictionRounds | None = None
-               ) -> tuple[dict[int, dict], float, dict]:
+               dataset: str, params: ShortTermModelsParams, ks: list[int],
+               kept: PredictionRounds | None = None) -> tuple[dict[int, dict], float, dict]:
     """Score the checkpoint `load_for_scoring` gave (`model`, its settings `loaded`, `bench.test`
-    grouped by scene) at every K_e of `ks`: (scores per K, seconds, the model's reported settings).
-    `kept` receives the rounds of the first K (`score`). Reads only the scoring keys of `params`
-    (temperature, rel_threshold, the K lists, rounds, seed, eval_batch_size, eval_chunk_size, bf16)."""
+    of `dataset` grouped by scene) at every K_e of `ks`: (scores per K, seconds, the model's
+    reported settings). `kept` receives the rounds of the first K (`score`). Reads only the scoring
+    keys of `params` (temperature, rel_threshold, the K lists, rounds, seed, eval_batch_size,
+    eval_chunk_size, bf16)."""
     eval_params = params.eval_params()
     start, results = time.perf_counter(), {}
-    samplings = [Sampling(ynet_options(params, k), params.seed + r)
+    samplings = [Sampling(ynet_options(params, dataset, k), params.seed + r)
                  for k in ks for r in range(params.rounds)]  # all sampled in one pass
     sampled, _ = predict_samplings(model, scenes, loaded, samplings, eval_params, len(bench.test),
                                    f"Y-net K_e={'/'.join(map(str, ks))}", loaded.crop,
@@ -326,7 +329,7 @@ def scene_images(sdd: Path | None, ethucy_root: Path | None,
 
 
 def ynet_qualitative(model: YNet, loaded: YnetSettings, scenes: list[SceneWindows],
-                     bench: Benchmark, params: ShortTermModelsParams, k: int,
+                     bench: Benchmark, dataset: str, params: ShortTermModelsParams, k: int,
                      image_of: Callable[[str], np.ndarray]) -> dict[str, np.ndarray]:
     """The `qualitative_rows` windows drawn as the long-term qualitative figure draws its own
     (`ynet_scoring.qualitative_examples`: the same keys and dtypes, coordinates in pixels of the
@@ -337,7 +340,7 @@ def ynet_qualitative(model: YNet, loaded: YnetSettings, scenes: list[SceneWindow
     for r in qualitative_rows(bench.test):
         scene = by_id[bench.test.scene_id[r]]
         picks.append((scene, int(np.flatnonzero(scene.index == r)[0]), image_of(scene.scene_id)))
-    return qualitative_examples(model, picks, loaded, ynet_options(params, k), params.seed,
+    return qualitative_examples(model, picks, loaded, ynet_options(params, dataset, k), params.seed,
                                 loaded.crop, loaded.crop_lead_steps)
 
 

@@ -2,8 +2,8 @@
 Tables 1-2).
 
 Loads the best epoch of `train_short_term_ynet` (its settings from the checkpoint) and scores it on
-every test window at each K_e of `k_sdd` / `k_ethucy`: TTST (the short-term `temperature`,
-`rel_threshold`), no CWS, K_a = 1, over `rounds` seeded rounds; ETH/UCY errors in metres
+every test window at each K_e of `k_sdd` / `k_ethucy`: TTST (the short-term `temperature`, the
+benchmark's `rel_threshold`), no CWS, K_a = 1, over `rounds` seeded rounds; ETH/UCY errors in metres
 (`pipeline.runners.short_term`). Also writes every round of the first K_e's test predictions (paths
 and sampled goals in the benchmark's unit, window ids of the dataset's table in `--windows`;
 `pipeline.harness.predictions`) and a few test windows' heatmaps and samples in the layout of the
@@ -12,7 +12,7 @@ SDD's reference.jpg, ETH/UCY's camera image on the oracle grid the homography ma
 dataset that was not trained gets the training stage's not-run record, an empty predictions file
 and a qualitative file holding only `not_run_reason`, all giving the same reason. Params:
 `profile`, `runtime.device`, `short_term.n_past`, `short_term.n_future`,
-`short_term_models.<profile>`: `temperature`, `rel_threshold`, `k_sdd` / `k_ethucy`, `rounds`,
+`short_term_models.<profile>`: `temperature`, `rel_threshold.<benchmark>`, `k_sdd` / `k_ethucy`, `rounds`,
 `seed`, `eval_batch_size`, `eval_chunk_size`, `bf16`.
 
     python -m pipeline.stages.evaluate_short_term_ynet --dataset eth --windows data/short_term \
@@ -91,9 +91,11 @@ def main(argv: list[str] | None = None) -> None:
     model, loaded, scenes = load_for_scoring(checkpoint, bench.test, maps, sizes, device)
     ks = settings.ks(args.dataset)
     kept = PredictionRounds(bench.test.window_id)
-    results, seconds, reported = score_ynet(model, loaded, scenes, bench, settings, ks, kept)
-    qualitative = ynet_qualitative(model, loaded, scenes, bench, settings, ks[0], image_of)
-    options = ynet_options(settings, ks[0])
+    results, seconds, reported = score_ynet(model, loaded, scenes, bench, args.dataset, settings, ks,
+                                            kept)
+    qualitative = ynet_qualitative(model, loaded, scenes, bench, args.dataset, settings, ks[0],
+                                   image_of)
+    options = ynet_options(settings, args.dataset, ks[0])
     kept.write(args.predictions, prediction_metadata(
         args.windows, args.dataset, MODEL, ks, k_e=options.K_e, k_a=options.K_a,
         sampling=dataclasses.asdict(options), checkpoint=str(checkpoint)))
