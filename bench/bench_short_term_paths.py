@@ -21,7 +21,7 @@ import numpy as np
 
 import short_term_validation  # bench/: run as `python bench/bench_short_term_paths.py`
 from pipeline.harness.metrics import step_errors, window_errors
-from pipeline.runners.short_term import benchmark_of, ynet_options
+from pipeline.runners.short_term import ynet_options
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings
 
 
@@ -41,16 +41,16 @@ def main() -> None:
     if trained is None:
         return
     stage, val, settings = trained.stage, trained.val, trained.settings
+    options = ynet_options(stage, args.dataset, args.k)  # as evaluate_short_term_ynet samples
     began = time.perf_counter()
     (sampled,), _ = predict_samplings(
-        trained.model, trained.scenes, settings, [Sampling(ynet_options(stage, args.dataset, args.k), stage.seed)],
+        trained.model, trained.scenes, settings, [Sampling(options, stage.seed)],
         stage.eval_params(), len(val), f"Y-net K_e={args.k}", settings.crop, settings.crop_lead_steps)
     seconds = time.perf_counter() - began
     lines = straight_paths(val.past[:, -1], sampled.goals, val.future.shape[1])
     rows = np.arange(len(val))
-    threshold = stage.rel_threshold[benchmark_of(args.dataset)]
-    print(f"{args.dataset}: {len(val)} val windows, K = {args.k} (TTST T = {stage.temperature}, "
-          f"threshold {threshold}, seed {stage.seed}), original pixels, {seconds:.0f} s")
+    print(f"{args.dataset}: {len(val)} val windows, K = {args.k} (TTST T = {options.temperature}, "
+          f"threshold {options.rel_threshold}, seed {stage.seed}), original pixels, {seconds:.0f} s")
     goals_fde = window_errors(sampled.paths, val.future, sampled.goals).fde  # (N,) as scored
     print(f"  goals: FDE (best of K) {goals_fde.mean():6.2f}")
     for name, paths in (("Y-net paths", sampled.paths), ("straight lines", lines)):

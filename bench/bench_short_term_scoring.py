@@ -61,7 +61,8 @@ def main() -> None:
         return
     model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
                                             trained.val, trained.scenes)
-    sampling = Sampling(ynet_options(settings, args.dataset, args.k), settings.seed)  # as the stage samples
+    # as the stage samples
+    sampling = Sampling(ynet_options(settings, args.dataset, args.k), settings.seed)
     configured = settings.eval_params()  # batch, chunk and bf16 as the stage scores
 
     def score(params: EvalParams) -> float:

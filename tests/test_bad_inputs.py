@@ -129,7 +129,8 @@ SHORT_TERM_MODELS = {
     "epochs": {m: {"sdd": 1, "ethucy": 1} for m in ("ynet", "sgan", "pecnet")},
     "ynet_steps_per_epoch": 0, "ynet_training": {"sdd": {}, "ethucy": {}}, "val_windows": 0,
     "ynet_sdd": SCALE, "ynet_ethucy": SCALE, "ynet_datasets": ["sdd"], "why_subset": "",
-    "temperature": 1.0, "rel_threshold": {"sdd": 0.01, "ethucy": 0.01}, "k_sdd": [20, 5], "k_ethucy": [20], "rounds": 1,
+    "temperature": 1.0, "rel_threshold": {"sdd": 0.01, "ethucy": 0.01}, "k_sdd": [20, 5],
+    "k_ethucy": [20], "rounds": 1,
     "seed": 0, "eval_batch_size": 4, "eval_chunk_size": 4, "bf16": False,
 }
 IND_BENCHMARK = {"ynet_resize": 0.33, "segmentation_downsample": 3, "freeze_encoder_epochs": 0}
