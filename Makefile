@@ -13,8 +13,8 @@ $(VENV)/.installed: pyproject.toml
 	$(BIN)/python -m pip install -q -e '.[test]'
 	touch $@
 
-repro: env  # dvc repro, each stage clocked into reports/stage_times.json (tools/timed_repro.py)
-	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python tools/timed_repro.py
+repro: env  # dvc repro, two single-threaded stages at once, each clocked (tools/timed_repro.py)
+	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python tools/timed_repro.py --jobs 2
 
 test: env
 	if [ "$$CI" = true ]; then bash tests/setup_chromium.sh; fi

@@ -128,3 +128,41 @@ def test_a_run_of_named_stages_renders_the_report_only_if_it_ran(tmp_path, monke
     assert timed_repro.rerender_report(["--force"], {"tracks": 1.0})
     assert timed_repro.rerender_report(["evaluate_ynet", "report"], {"report": 5.0})
     assert not timed_repro.rerender_report(["evaluate_ynet"], {"evaluate_ynet": 5.0})
+
+
+def test_jobs_is_taken_out_of_the_dvc_arguments():
+    assert timed_repro.split_jobs(["--jobs", "2", "-f", "report"]) == (2, ["-f", "report"])
+    assert timed_repro.split_jobs(["train_ynet"]) == (1, ["train_ynet"])
+    for bad in (["--jobs"], ["--jobs", "two"], ["--jobs", "0"]):
+        with pytest.raises(SystemExit, match="--jobs"):
+            timed_repro.split_jobs(bad)
+
+
+def test_with_jobs_the_stages_run_through_parallel_repro_and_are_clocked_each(tmp_path, monkeypatch):
+    """`make repro` passes --jobs 2: parallel_repro runs the stages, each finished stage is written
+    to the file at once, and the record says how many ran at most at once."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(timed_repro, "current_stages", lambda: {"tracks", "windows@30", "report"})
+    calls, written = [], []
+
+    def fake_parallel(args, jobs, on_stage_done):
+        calls.append((args, jobs))
+        for name, seconds in (("tracks", 30.5), ("windows@30", 60.0)):
+            on_stage_done(name, seconds)
+            written.append(json.loads((tmp_path / timed_repro.STAGE_TIMES).read_text()))
+        return 0, {"tracks": 30.5, "windows@30": 60.0}
+
+    monkeypatch.setattr(timed_repro, "run_parallel", fake_parallel)
+    monkeypatch.setattr(timed_repro, "run_dvc", lambda args, on_stage_done=None: (0, []))
+    assert timed_repro.main(["--jobs", "2", "-f"]) == 0
+    assert calls == [(["-f"], 2)]
+    assert list(written[0]["stages"]) == ["tracks"] and written[0]["last_run"]["exit_code"] is None
+    record = json.loads((tmp_path / timed_repro.STAGE_TIMES).read_text())
+    assert record["stages"]["windows@30"]["seconds"] == 60.0
+    assert record["last_run"]["jobs"] == 2 and record["last_run"]["exit_code"] == 0
+    assert record["last_run"]["command"] == "tools/parallel_repro.py --jobs 2 -f"
+
+
+def test_parallel_runs_take_stage_names_and_force_only():
+    with pytest.raises(SystemExit, match="--dry"):
+        timed_repro.run_parallel(["--dry"], 2, lambda name, seconds: None)

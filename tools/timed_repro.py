@@ -12,7 +12,12 @@ more, so its provenance section shows this run's times (the report stage reads t
 run of named stages, only if the report was among them (else `dvc repro report` would run every
 other stale stage, unclocked).
 
-    python tools/timed_repro.py [dvc repro arguments...]
+With `--jobs N` (what `make repro` passes: 2) the stages run through tools/parallel_repro.py,
+which runs up to N single-threaded stages at once; each stage is then clocked from its start to
+its lock update as before, so on 2 cores the stages' times sum to more than the run's wall time
+(the record's `seconds`).
+
+    python tools/timed_repro.py [--jobs N] [dvc repro arguments...]
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # parallel_repro, beside this file
 
 from pipeline.io import write_json  # noqa: E402  (atomic: temp file, then rename)
 
@@ -86,8 +92,38 @@ def run_dvc(args: list[str], on_stage_done: Callable[[list[tuple[float, str]]], 
     return process.returncode, stamped
 
 
+def split_jobs(args: list[str]) -> tuple[int, list[str]]:
+    """(--jobs N, the other arguments): ["--jobs", "2", "-f"] -> (2, ["-f"]); 1 without it."""
+    if "--jobs" not in args:
+        return 1, list(args)
+    at = args.index("--jobs")
+    try:
+        jobs = int(args[at + 1])
+    except (IndexError, ValueError):
+        raise SystemExit("timed_repro: --jobs needs a whole number") from None
+    if jobs < 1:
+        raise SystemExit("timed_repro: --jobs must be >= 1")
+    return jobs, args[:at] + args[at + 2:]
+
+
+def run_parallel(args: list[str], jobs: int, on_stage_done: Callable[[str, float], None]
+                 ) -> tuple[int, dict[str, float]]:
+    """tools/parallel_repro.py's run of `args`: stage names, -f / --force, -s / --single-item."""
+    import parallel_repro
+
+    flags = {arg for arg in args if arg.startswith("-")}
+    known = {"-f", "--force", "-s", "--single-item"}
+    if flags - known:
+        raise SystemExit(f"timed_repro --jobs {jobs}: only stage names, -f and -s, not "
+                         f"{' '.join(sorted(flags - known))} (run without --jobs)")
+    targets = [arg for arg in args if not arg.startswith("-")]
+    return parallel_repro.run_stages(targets, force=bool(flags & {"-f", "--force"}), jobs=jobs,
+                                     single_item=bool(flags & {"-s", "--single-item"}),
+                                     on_stage_done=on_stage_done)
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = sys.argv[1:] if argv is None else argv
+    jobs, args = split_jobs(sys.argv[1:] if argv is None else argv)
     started = dt.datetime.now(dt.UTC)
     clock = time.monotonic()
     if not STAGE_TIMES.exists():  # the report stage reads it: a first run needs it in place
@@ -95,19 +131,31 @@ def main(argv: list[str] | None = None) -> int:
     previous = json.loads(STAGE_TIMES.read_text())
     current = current_stages()
 
-    def record(stamped: list[tuple[float, str]], code: int | None) -> dict[str, float]:
+    command = " ".join(["dvc", "repro", *args] if jobs == 1
+                       else ["tools/parallel_repro.py", "--jobs", str(jobs), *args])
+
+    def record(ran: dict[str, float], code: int | None) -> dict[str, float]:
         """Write the times so far; a run stopped before dvc exits keeps exit_code None."""
-        ran = stage_seconds(stamped)
         if ran:
             run = {"started": started.strftime("%Y-%m-%d %H:%M:%S UTC"),
                    "seconds": round(time.monotonic() - clock, 1),
-                   "command": " ".join(["dvc", "repro", *args]), "exit_code": code,
+                   "command": command, "exit_code": code, "jobs": jobs,
                    "stages_run": sorted(ran), "cpu_count": os.cpu_count()}
             write_json(merged_times(previous, ran, run, current), STAGE_TIMES)
         return ran
 
-    code, stamped = run_dvc(["repro", *args], lambda lines: record(lines, None))
-    ran = record(stamped, code)
+    if jobs == 1:
+        code, stamped = run_dvc(["repro", *args], lambda lines: record(stage_seconds(lines), None))
+        ran = record(stage_seconds(stamped), code)
+    else:
+        ran_so_far: dict[str, float] = {}
+
+        def on_stage_done(name: str, seconds: float) -> None:
+            ran_so_far[name] = seconds
+            record(ran_so_far, None)
+
+        code, ran = run_parallel(args, jobs, on_stage_done)
+        record(ran, code)
     if not ran:
         return code
     print(f"timed_repro: {len(ran)} stages in {time.monotonic() - clock:.0f} s; times in {STAGE_TIMES}")

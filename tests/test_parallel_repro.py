@@ -1,0 +1,161 @@
+"""tools/parallel_repro.py: single-threaded stages run two at a time, with the lock a serial
+`dvc repro` would write. The integration tests build a four-stage DVC project in a temp folder:
+prep -> (left, right) -> join, where left and right sleep and record when they ran."""
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+
+import parallel_repro  # noqa: E402
+from parallel_repro import ALONE, SHARED  # noqa: E402
+
+STEP = textwrap.dedent("""\
+    import json, os, signal, sys, time
+    out, how = sys.argv[1], sys.argv[2] if len(sys.argv) > 2 else ""
+    start = time.time()
+    if how == "interrupt":  # as Ctrl-C would: the runner above gets SIGINT while this runs
+        os.kill(os.getppid(), signal.SIGINT)
+    time.sleep(1.5)
+    if how == "fail":
+        sys.exit(3)
+    json.dump({"start": start, "end": time.time()}, open(out, "w"))
+    """)
+
+
+def test_a_stage_shares_the_machine_only_if_every_threads_key_it_declares_is_one():
+    assert parallel_repro.sharing({"train_baseline.threads": 1, "profile": "cpu"}) == SHARED
+    assert parallel_repro.sharing({"train_baseline": {"seed": 0, "threads": 1}}) == SHARED
+    assert parallel_repro.sharing({"train_baseline": {"threads": 1}, "eval.cpu": {"threads": 2}}) == ALONE
+    assert parallel_repro.sharing({"profile": "cpu"}) == ALONE  # says nothing: runs alone
+    assert parallel_repro.sharing({"epochs": {5: 3, 10: 3}, "threads": 1}) == SHARED  # int keys
+
+
+def test_a_stage_starts_beside_others_only_when_all_are_single_threaded():
+    assert parallel_repro.can_start(ALONE, [], jobs=2)
+    assert parallel_repro.can_start(SHARED, [SHARED], jobs=2)
+    assert not parallel_repro.can_start(SHARED, [SHARED, SHARED], jobs=2)
+    assert not parallel_repro.can_start(SHARED, [SHARED], jobs=1)
+    assert not parallel_repro.can_start(ALONE, [SHARED], jobs=2)
+    assert not parallel_repro.can_start(SHARED, [ALONE], jobs=2)
+
+
+def test_a_stage_is_ready_once_its_upstream_stages_finished():
+    order = ["prep", "left", "right", "join"]
+    upstream = {"left": {"prep"}, "right": {"prep"}, "join": {"left", "right"}}
+    assert parallel_repro.ready(order, upstream, set(), set()) == ["prep"]
+    assert parallel_repro.ready(order, upstream, {"prep"}, {"prep"}) == ["left", "right"]
+    assert parallel_repro.ready(order, upstream, {"prep", "left"}, {"prep", "left", "right"}) == []
+    assert parallel_repro.ready(order, upstream, {"prep", "left", "right"},
+                                {"prep", "left", "right"}) == ["join"]
+
+
+def make_project(root: Path, threads: int = 1, right: str = "") -> None:
+    """`right`: "fail" (exits 3) or "interrupt" (sends the runner SIGINT), else it succeeds."""
+    subprocess.run(["dvc", "init", "--no-scm", "-q"], cwd=root, check=True)
+    (root / "step.py").write_text(STEP)
+    (root / "params.yaml").write_text(f"job:\n  threads: {threads}\n  other: 5\n")
+    python = sys.executable
+    stages = {
+        "prep": {"cmd": f"{python} -c \"open('prep.txt', 'w').write('x')\"",
+                 "outs": ["prep.txt"]},
+        "left": {"cmd": f"{python} step.py left.json", "deps": ["prep.txt", "step.py"],
+                 "params": ["job.threads"], "outs": ["left.json"]},
+        "right": {"cmd": f"{python} step.py right.json {right}",
+                  "deps": ["prep.txt", "step.py"], "params": ["job"], "outs": ["right.json"]},
+        "join": {"cmd": f"{python} -c \"open('join.txt', 'w').write('y')\"",
+                 "deps": ["left.json", "right.json"], "outs": ["join.txt"]},
+    }
+    (root / "dvc.yaml").write_text(yaml.safe_dump({"stages": stages}))
+
+
+def interval(root: Path, name: str) -> tuple[float, float]:
+    record = json.loads((root / f"{name}.json").read_text())
+    return record["start"], record["end"]
+
+
+def overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    return a[0] < b[1] and b[0] < a[1]
+
+
+@pytest.fixture
+def project(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def clean(root: Path) -> bool:
+    from dvc.repo import Repo
+
+    return Repo(str(root)).status() == {}
+
+
+def test_single_threaded_stages_run_together_and_the_lock_is_complete(project):
+    make_project(project)
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert code == 0 and set(seconds) == {"prep", "left", "right", "join"}
+    left, right = interval(project, "left"), interval(project, "right")
+    assert overlap(left, right)
+    first_right = right
+    assert (project / "join.txt").stat().st_mtime >= max(left[1], right[1])
+    assert clean(project)  # dvc status: every stage's lock entry matches, as after dvc repro
+    lock = yaml.safe_load((project / "dvc.lock").read_text())
+    assert set(lock["stages"]) == {"prep", "left", "right", "join"}
+    assert lock["stages"]["right"]["params"]["params.yaml"]["job"] == {"threads": 1, "other": 5}
+
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert (code, seconds) == (0, {})  # nothing changed: nothing runs
+
+    (project / "params.yaml").write_text("job:\n  threads: 1\n  other: 6\n")  # only right reads it
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert code == 0 and set(seconds) == {"right", "join"} and clean(project)
+
+    (project / "params.yaml").write_text("job:\n  threads: 1\n  other: 5\n")  # seen before
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert code == 0 and set(seconds) == {"right", "join"} and clean(project)
+    assert interval(project, "right") == first_right  # restored from dvc's run cache, not rerun
+
+
+def test_stages_with_more_threads_or_one_job_run_one_at_a_time(project):
+    make_project(project, threads=2)
+    assert parallel_repro.run_stages([], jobs=2, root=str(project))[0] == 0
+    assert not overlap(interval(project, "left"), interval(project, "right"))
+    code, seconds = parallel_repro.run_stages([], force=True, jobs=1, root=str(project))
+    assert code == 0 and len(seconds) == 4
+    assert not overlap(interval(project, "left"), interval(project, "right"))
+
+
+def test_a_named_target_runs_with_what_it_depends_on_only(project):
+    make_project(project)
+    code, seconds = parallel_repro.run_stages(["left"], jobs=2, root=str(project))
+    assert code == 0 and set(seconds) == {"prep", "left"}
+    assert not (project / "right.json").exists()
+    code, seconds = parallel_repro.run_stages(["left", "right"], force=True, single_item=True,
+                                              jobs=2, root=str(project))
+    assert code == 0 and set(seconds) == {"left", "right"}  # not prep: as dvc repro -f -s
+
+
+def test_a_failed_stage_stops_the_run_and_is_not_locked(project, capsys):
+    make_project(project, right="fail")
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert code == 1
+    assert set(seconds) == {"prep", "left"}  # left, beside the failing right, still finished
+    assert not (project / "join.txt").exists()
+    lock = yaml.safe_load((project / "dvc.lock").read_text())
+    assert set(lock["stages"]) == {"prep", "left"}
+    assert "failed to reproduce 'right': exited with 3" in capsys.readouterr().out
+
+
+def test_a_signal_reaches_the_running_stages_and_ends_the_run(project):
+    """Ctrl-C (or the session's SIGTERM): the commands get it (a training saves its checkpoint),
+    nothing more starts, nothing half-done is locked, and the exit code says which signal."""
+    make_project(project, right="interrupt")
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert code == 130 and set(seconds) == {"prep"}
+    assert not (project / "left.json").exists() and not (project / "join.txt").exists()
