@@ -7,7 +7,11 @@ synthetic windows (no data needed), with each profile's settings from params.yam
 - long-term `ynet.cpu` (whole scenes at its resize, batch 2): float32 vs `bf16`, the change behind
   `ynet.cpu.bf16`;
 - short-term SDD (`short_term_models.cpu`: 64 x 64 agent crops at resize 0.125): batch 2 float32
-  (what the profile trains) vs batch 16 of mixed scenes in bfloat16 (the trial the README reports).
+  (what the profile trains) vs batch 16 of mixed scenes in bfloat16 (the trial the README reports);
+- short-term ETH/UCY (64 x 64 crops at its resize): batch 2 float32 (the profile) vs bfloat16.
+
+With `--threads 1`, against the default 2, it shows what one core does alone: whether two
+trainings side by side on one thread each would beat one after the other on two.
 
     python bench/bench_training_precision.py [--steps 12] [--threads 2]
 """
@@ -78,14 +82,17 @@ def main() -> None:
     params = read_params()
     cpu = {**params, "profile": "cpu"}
     long_term = load_profile(YnetSettings, "ynet", cpu)
-    short_term = ynet_settings(long_term, load_profile(ShortTermModelsParams, "short_term_models", cpu),
-                               "sdd", 12, 6)
+    short_params = load_profile(ShortTermModelsParams, "short_term_models", cpu)
+    short_term = ynet_settings(long_term, short_params, "sdd", 12, 6)
+    ethucy = ynet_settings(long_term, short_params, "eth", 12, 6)
     cases = {  # name: (settings, n_past, n_future)
         "long-term, batch 2, float32": (dataclasses.replace(long_term, bf16=False), 5, 30),
         "long-term, batch 2, bf16 (ynet.cpu)": (dataclasses.replace(long_term, bf16=True), 5, 30),
         "short-term SDD crops, batch 2, float32 (cpu)": (short_term, 8, 12),
         "short-term SDD crops, batch 16 mixed, bf16": (dataclasses.replace(
             short_term, batch_size=16, mix_scenes=True, bf16=True), 8, 12),
+        "short-term ETH/UCY crops, batch 2, float32 (cpu)": (ethucy, 8, 12),
+        "short-term ETH/UCY crops, batch 2, bf16": (dataclasses.replace(ethucy, bf16=True), 8, 12),
     }
     print(f"torch {torch.__version__}, {args.threads} threads, {args.steps} steps per case")
     print("CPU bf16 hardware (AVX-512 BF16 or AMX): "

@@ -1196,3 +1196,19 @@ def test_short_term_and_ind_beyond_change_no_paper_table_and_say_when_missing(pr
     assert f"stage not yet run: {project / 'metrics'}/beyond/short_term.json missing" in html
     assert f"inD: stage not yet run: {project / 'metrics'}/beyond/ind.json missing" in html
     assert 'data-table="beyond"' in html  # the long-term part stands on its own
+
+
+@pytest.mark.parametrize("jobs", [None, 2])
+def test_the_time_section_says_when_stages_ran_side_by_side(project, monkeypatch, jobs):
+    """With `make repro`'s --jobs 2 the stage times add up to more than the run's wall time: the
+    page says so; a record from before --jobs (no such key) reads as one stage at a time."""
+    monkeypatch.chdir(project)  # the report stage reads reports/stage_times.json by default
+    run = {"started": "2026-11-27 09:53:26 UTC", "seconds": 2010.1, "exit_code": 0,
+           "command": "tools/parallel_repro.py --jobs 2", "stages_run": ["a", "b"], "cpu_count": 2,
+           **({"jobs": jobs} if jobs else {})}
+    (project / "reports/stage_times.json").write_text(json.dumps({"last_run": run, "stages": {
+        "a": {"seconds": 1500.0, "run_started": run["started"]},
+        "b": {"seconds": 1500.0, "run_started": run["started"]}}}))
+    html = run_report(project).read_text()
+    assert "33.5 min in all" in html and "50.0 min" in html  # the run's wall time; the stages' sum
+    assert ("Up to 2 single-threaded stages ran at once" in html) == (jobs == 2)

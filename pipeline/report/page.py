@@ -1039,7 +1039,7 @@ def stage_profile(path: Path | None) -> dict[str, Any] | Absent:
         stages = {str(name): float(entry["seconds"]) for name, entry in record["stages"].items()}
         if not stages:
             return Absent(f"{path.as_posix()}: no stage clocked yet (`make repro` fills it)")
-        last_run = dict(record["last_run"])
+        last_run = {"jobs": 1, **record["last_run"]}  # runs before --jobs ran one stage at a time
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
         return Absent(f"{path.as_posix()} unreadable: {e.__class__.__name__}: {e}", "invalid")
     total = sum(stages.values())
