@@ -32,7 +32,8 @@ STEP = textwrap.dedent("""\
 def test_a_stage_shares_the_machine_only_if_every_threads_key_it_declares_is_one():
     assert parallel_repro.sharing({"train_baseline.threads": 1, "profile": "cpu"}) == SHARED
     assert parallel_repro.sharing({"train_baseline": {"seed": 0, "threads": 1}}) == SHARED
-    assert parallel_repro.sharing({"train_baseline": {"threads": 1}, "eval.cpu": {"threads": 2}}) == ALONE
+    two_sections = {"train_baseline": {"threads": 1}, "eval.cpu": {"threads": 2}}
+    assert parallel_repro.sharing(two_sections) == ALONE
     assert parallel_repro.sharing({"profile": "cpu"}) == ALONE  # says nothing: runs alone
     assert parallel_repro.sharing({"epochs": {5: 3, 10: 3}, "threads": 1}) == SHARED  # int keys
 

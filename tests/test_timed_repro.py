@@ -138,7 +138,7 @@ def test_jobs_is_taken_out_of_the_dvc_arguments():
             timed_repro.split_jobs(bad)
 
 
-def test_with_jobs_the_stages_run_through_parallel_repro_and_are_clocked_each(tmp_path, monkeypatch):
+def test_with_jobs_parallel_repro_runs_the_stages_each_clocked(tmp_path, monkeypatch):
     """`make repro` passes --jobs 2: parallel_repro runs the stages, each finished stage is written
     to the file at once, and the record says how many ran at most at once."""
     monkeypatch.chdir(tmp_path)

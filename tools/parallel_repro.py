@@ -28,7 +28,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 ALONE, SHARED = "alone", "shared"  # how a stage's command may run: by itself or beside others
-PROGRESS_EVERY_S = 30.0  # a concurrent stage's progress bar (a line ended by \r) is echoed this often
+PROGRESS_EVERY_S = 30.0  # how often a concurrent stage's progress bar (lines ended by \r) is echoed
 
 
 def thread_counts(params: Mapping[str, object]) -> list[object]:
@@ -105,9 +105,10 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
                on_stage_done: Callable[[str, float], None] | None = None,
                root: str = ".") -> tuple[int, dict[str, float]]:
     """Reproduce `targets` (all stages if none) and what they depend on (with `single_item`, the
-    targets alone, as `dvc repro --single-item`); (exit code, wall seconds of each stage that ran). Stops starting stages after the first failure and returns 1 once the
-    running ones end; SIGINT / SIGTERM are passed to the running commands (their trainings save
-    a resumable checkpoint) and end the run with 130 / 143."""
+    targets alone, as `dvc repro --single-item`); (exit code, wall seconds of each stage that
+    ran). Stops starting stages after the first failure and returns 1 once the running ones end;
+    SIGINT / SIGTERM are passed to the running commands (their trainings save a resumable
+    checkpoint) and end the run with 130 / 143."""
     from dvc.repo import Repo, lock_repo
     from dvc.repo.reproduce import collect_stages, plan_repro
     from dvc.stage.cache import RunCacheNotFoundError
@@ -136,7 +137,8 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         for child in running.values():
             child.process.send_signal(signum)
 
-    previous_handlers = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    previous_handlers = {sig: signal.signal(sig, on_signal)
+                         for sig in (signal.SIGINT, signal.SIGTERM)}
 
     def launch(name: str, command: str, kind: str, commands_left: list[str], since: float):
         stage = stages[name]
