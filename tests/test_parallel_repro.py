@@ -160,3 +160,22 @@ def test_a_signal_reaches_the_running_stages_and_ends_the_run(project):
     code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
     assert code == 130 and set(seconds) == {"prep"}
     assert not (project / "left.json").exists() and not (project / "join.txt").exists()
+
+
+def test_output_beside_other_stages_is_labelled_and_progress_bars_thinned(capsys):
+    """Each line gets its stage's name; a progress bar's redraws (\\r) are shown at most every
+    PROGRESS_EVERY_S seconds; a character split between two reads comes out whole."""
+    bar = "█".encode()
+    chunks = [b"epoch 1: loss " + bar[:1], bar[1:] + b" 3.2\ntrain:  10%|\rtrain:  20%|",
+              b"\rtrain:  25%|", b"\rtrain:  30%|\nepoch 2: loss 3.0\n"]
+
+    class Stream:
+        def read1(self, _size):
+            return chunks.pop(0) if chunks else b""
+
+    parallel_repro.echo_output("train@a", Stream(), prefix=True)
+    assert capsys.readouterr().out.splitlines() == [
+        "[train@a] epoch 1: loss █ 3.2",
+        "[train@a] train:  20%|",  # the bar's latest state when first seen
+        "[train@a] train:  30%|",  # 25 % came within 30 s of 20 %: not shown; a finished line is
+        "[train@a] epoch 2: loss 3.0"]

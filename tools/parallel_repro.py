@@ -18,6 +18,7 @@ declared section too) is 1; one that declares none, or another value, runs alone
 from __future__ import annotations
 
 import argparse
+import codecs
 import os
 import signal
 import subprocess
@@ -79,8 +80,9 @@ def echo_output(name: str, stream, prefix: bool) -> None:
     """Copy a child's output to ours; beside other stages each line carries `[stage]` and a
     progress bar's redraws (lines ended by \\r) are shown every PROGRESS_EVERY_S seconds only."""
     last_progress, pending = 0.0, ""
+    decoder = codecs.getincrementaldecoder("utf-8")(errors="replace")  # a character may span reads
     while chunk := stream.read1(65536) if hasattr(stream, "read1") else stream.read(65536):
-        text = pending + chunk.decode(errors="replace")
+        text = pending + decoder.decode(chunk)
         if not prefix:
             sys.stdout.write(text)
             sys.stdout.flush()
