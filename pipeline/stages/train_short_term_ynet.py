@@ -58,7 +58,6 @@ def main(argv: list[str] | None = None) -> None:
     windows = load_section(ShortTermParams, "short_term", params)
     runtime = load_section(RuntimeParams, "runtime", params)
     device = select_device(runtime.device)
-    print(f"train_short_term_ynet: on {describe(device)}")
 
     bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
     scene_ids = set(bench.train.scene_id) | set(bench.val.scene_id) | set(bench.test.scene_id)
@@ -68,6 +67,7 @@ def main(argv: list[str] | None = None) -> None:
     with Preemption(runtime.max_minutes) as preemption:
         facts = train_ynet(bench, maps, sizes, model_settings, windows.n_past, args.checkpoint_dir,
                            settings.val_windows, settings.seed, device, preemption)
+    print(f"train_short_term_ynet: trained on {describe(device)}")  # after: training sets threads
     write_json(training_record(args.dataset, MODEL, profile, facts), args.metrics)
 
 
