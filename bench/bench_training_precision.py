@@ -40,8 +40,9 @@ from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch
 from ynet.model import YNet  # noqa: E402
 
 
-def synthetic_windows(n: int, n_past: int, n_future: int, seed: int = 0):
-    """`n` straight walks split over two scenes with random 6-class maps (original pixels)."""
+def synthetic_windows(n: int, n_past: int, n_future: int, classes: int, seed: int = 0):
+    """`n` straight walks split over two scenes with random `classes`-class maps (original
+    pixels)."""
     rng = np.random.default_rng(seed)
     height, width = IMAGE_HW
     start = rng.uniform([200, 200], [width - 800, height - 800], size=(n, 1, 2))
@@ -50,7 +51,7 @@ def synthetic_windows(n: int, n_past: int, n_future: int, seed: int = 0):
     arrays = WindowArrays(past=xy[:, :n_past], future=xy[:, n_past:], window_id=np.arange(n),
                           scene_id=scene_id, track_id=np.arange(n), first_frame=np.zeros(n),
                           split=np.array(["train"] * n))
-    maps = {name: rng.dirichlet(np.ones(6), size=(height // 4, width // 4)).astype(np.float32)
+    maps = {name: rng.dirichlet(np.ones(classes), size=(height // 4, width // 4)).astype(np.float32)
             .transpose(2, 0, 1) for name in ("bench_0", "bench_1")}
     return arrays, maps, {name: IMAGE_HW for name in maps}
 
@@ -58,7 +59,8 @@ def synthetic_windows(n: int, n_past: int, n_future: int, seed: int = 0):
 def samples_per_second(settings: YnetSettings, steps: int, n_past: int, n_future: int) -> float:
     """Training samples per second over `steps` optimiser steps after one warm-up step."""
     settings = dataclasses.replace(settings, steps_per_epoch=0)
-    arrays, maps, sizes = synthetic_windows(settings.batch_size * (steps + 1), n_past, n_future)
+    arrays, maps, sizes = synthetic_windows(settings.batch_size * (steps + 1), n_past, n_future,
+                                            settings.semantic_classes)
     scenes = group_by_scene(arrays, maps, sizes, settings.resize)
     torch.manual_seed(settings.seed)
     model = YNet(settings.model_config(n_past, n_future))
@@ -84,7 +86,7 @@ def main() -> None:
     long_term = load_profile(YnetSettings, "ynet", cpu)
     short_params = load_profile(ShortTermModelsParams, "short_term_models", cpu)
     short_term = ynet_settings(long_term, short_params, "sdd", 12, 6)
-    ethucy = ynet_settings(long_term, short_params, "eth", 12, 6)
+    ethucy = ynet_settings(long_term, short_params, "eth", 12, 3)  # its maps: 3 classes
     cases = {  # name: (settings, n_past, n_future)
         "long-term, batch 2, float32": (dataclasses.replace(long_term, bf16=False), 5, 30),
         "long-term, batch 2, bf16 (ynet.cpu)": (dataclasses.replace(long_term, bf16=True), 5, 30),

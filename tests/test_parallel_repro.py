@@ -3,6 +3,7 @@
 prep -> (left, right) -> join, where left and right sleep and record when they ran."""
 
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -20,8 +21,8 @@ STEP = textwrap.dedent("""\
     import json, os, signal, sys, time
     out, how = sys.argv[1], sys.argv[2] if len(sys.argv) > 2 else ""
     start = time.time()
-    if how == "interrupt":  # as Ctrl-C would: the runner above gets SIGINT while this runs
-        os.kill(os.getppid(), signal.SIGINT)
+    if how == "interrupt":  # as Ctrl-C would: the runner gets SIGINT while this runs
+        os.kill(int(os.environ["RUNNER_PID"]), signal.SIGINT)
     time.sleep(1.5)
     if how == "fail":
         sys.exit(3)
@@ -153,10 +154,11 @@ def test_a_failed_stage_stops_the_run_and_is_not_locked(project, capsys):
     assert "failed to reproduce 'right': exited with 3" in capsys.readouterr().out
 
 
-def test_a_signal_reaches_the_running_stages_and_ends_the_run(project):
+def test_a_signal_reaches_the_running_stages_and_ends_the_run(project, monkeypatch):
     """Ctrl-C (or the session's SIGTERM): the commands get it (a training saves its checkpoint),
     nothing more starts, nothing half-done is locked, and the exit code says which signal."""
     make_project(project, right="interrupt")
+    monkeypatch.setenv("RUNNER_PID", str(os.getpid()))  # inherited: no shell's ppid to rely on
     code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
     assert code == 130 and set(seconds) == {"prep"}
     assert not (project / "left.json").exists() and not (project / "join.txt").exists()

@@ -2,12 +2,12 @@
 
 `dvc repro` runs one stage at a time. Most of this pipeline's stages use both cores (Y-net, the
 segmentation), but the baselines train and score with one torch thread (`train_baseline.threads`
-1: about 50 minutes of the `cpu` profile on 2 cores), so during those the other core idles. Here
-DVC's own stage objects do everything DVC would (the staleness check, removing the outputs, the
-run cache, hashing, committing, the lock update), all in this one process and one at a time; only
-the stages' commands run as child processes, up to `jobs` of them at once when every one of them
-is single-threaded, otherwise alone. A stage starts only once every stage it depends on has
-finished, as with `dvc repro`; outputs and `dvc.lock` are therefore the same as a serial run's.
+1: about an hour of the `cpu` profile's stage time, README), so during those the other core
+idles. Here DVC's own stage objects do everything DVC would (the staleness check, removing the
+outputs, the run cache, hashing, committing, the lock update), all in this one process and one at
+a time; only the stages' commands run as child processes, up to `jobs` of them at once when every
+one of them is single-threaded, otherwise alone. A stage starts only once every stage it depends
+on has finished, as with `dvc repro`; outputs and `dvc.lock` are therefore a serial run's.
 
 A stage counts as single-threaded when every `threads` key among its declared params (inside a
 declared section too) is 1; one that declares none, or another value, runs alone.
@@ -67,9 +67,7 @@ def ready(order: list[str], upstream: Mapping[str, set[str]], finished: set[str]
 
 @dataclass
 class Running:
-    """A stage's command running as a child process."""
-    name: str
-    kind: str
+    """A stage's command running as a child process (the stage's name is its key in `running`)."""
     process: subprocess.Popen
     started: float
     echo: threading.Thread
@@ -81,7 +79,7 @@ def echo_output(name: str, stream, prefix: bool) -> None:
     progress bar's redraws (lines ended by \\r) are shown every PROGRESS_EVERY_S seconds only."""
     last_progress, pending = 0.0, ""
     decoder = codecs.getincrementaldecoder("utf-8")(errors="replace")  # a character may span reads
-    while chunk := stream.read1(65536) if hasattr(stream, "read1") else stream.read(65536):
+    while chunk := stream.read1(65536):
         text = pending + decoder.decode(chunk)
         if not prefix:
             sys.stdout.write(text)
@@ -142,7 +140,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
     previous_handlers = {sig: signal.signal(sig, on_signal)
                          for sig in (signal.SIGINT, signal.SIGTERM)}
 
-    def launch(name: str, command: str, kind: str, commands_left: list[str], since: float):
+    def launch(name: str, command: str, commands_left: list[str], since: float):
         stage = stages[name]
         kwargs = prepare_kwargs(stage)
         print(f"> {command}", flush=True)
@@ -153,7 +151,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         echo = threading.Thread(target=echo_output, args=(name, process.stdout, jobs > 1),
                                 daemon=True)
         echo.start()
-        running[name] = Running(name, kind, process, since, echo, commands_left)
+        running[name] = Running(process, since, echo, commands_left)
 
     def start(name: str) -> None:
         """DVC's part before the command (in this process), then the command itself."""
@@ -174,7 +172,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
                 except RunCacheNotFoundError:
                     stage.save_deps()
         first, *rest = _enforce_cmd_list(stage.cmd)
-        launch(name, first, kinds[name], rest, since)
+        launch(name, first, rest, since)
 
     def commit(name: str, since: float) -> None:
         stage = stages[name]
@@ -192,7 +190,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         while True:
             if not failed and stop_signal is None:
                 for name in ready(order, upstream, finished, started):
-                    if not can_start(kinds[name], (r.kind for r in running.values()), jobs):
+                    if not can_start(kinds[name], (kinds[other] for other in running), jobs):
                         continue  # a later single-threaded stage may still fit beside
                     started.add(name)
                     start(name)
@@ -213,8 +211,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
                     print(f"ERROR: failed to reproduce '{name}': exited with {code}", flush=True)
                     failed = True
                 elif child.commands_left and stop_signal is None:
-                    launch(name, child.commands_left[0], child.kind, child.commands_left[1:],
-                           child.started)
+                    launch(name, child.commands_left[0], child.commands_left[1:], child.started)
                 else:
                     commit(name, child.started)
     finally:
