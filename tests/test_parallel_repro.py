@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -21,9 +22,11 @@ STEP = textwrap.dedent("""\
     import json, os, signal, sys, time
     out, how = sys.argv[1], sys.argv[2] if len(sys.argv) > 2 else ""
     start = time.time()
-    if how == "interrupt":  # as Ctrl-C would: the runner gets SIGINT while this runs
+    if how.startswith("interrupt"):  # as Ctrl-C would: the runner gets SIGINT while this runs
+        if how == "interrupt-but-finish":
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
         os.kill(int(os.environ["RUNNER_PID"]), signal.SIGINT)
-    time.sleep(1.5)
+    time.sleep(60 if how == "wait" else 1.5)  # "wait": until a signal ends it
     if how == "fail":
         sys.exit(3)
     json.dump({"start": start, "end": time.time()}, open(out, "w"))
@@ -58,8 +61,10 @@ def test_a_stage_is_ready_once_its_upstream_stages_finished():
                                 {"prep", "left", "right"}) == ["join"]
 
 
-def make_project(root: Path, threads: int = 1, right: str = "") -> None:
-    """`right`: "fail" (exits 3) or "interrupt" (sends the runner SIGINT), else it succeeds."""
+def make_project(root: Path, threads: int = 1, right: str = "", left: str = "") -> None:
+    """`right`: "fail" (exits 3), "interrupt" (sends the runner SIGINT) or "interrupt-but-finish"
+    (sends it, ignores it, succeeds, and a second command follows), else it succeeds. `left`:
+    "wait" sleeps a minute unless a signal ends it."""
     subprocess.run(["dvc", "init", "--no-scm", "-q"], cwd=root, check=True)
     (root / "step.py").write_text(STEP)
     (root / "params.yaml").write_text(f"job:\n  threads: {threads}\n  other: 5\n")
@@ -67,13 +72,16 @@ def make_project(root: Path, threads: int = 1, right: str = "") -> None:
     stages = {
         "prep": {"cmd": f"{python} -c \"open('prep.txt', 'w').write('x')\"",
                  "outs": ["prep.txt"]},
-        "left": {"cmd": f"{python} step.py left.json", "deps": ["prep.txt", "step.py"],
+        "left": {"cmd": f"{python} step.py left.json {left}", "deps": ["prep.txt", "step.py"],
                  "params": ["job.threads"], "outs": ["left.json"]},
         "right": {"cmd": f"{python} step.py right.json {right}",
                   "deps": ["prep.txt", "step.py"], "params": ["job"], "outs": ["right.json"]},
         "join": {"cmd": f"{python} -c \"open('join.txt', 'w').write('y')\"",
                  "deps": ["left.json", "right.json"], "outs": ["join.txt"]},
     }
+    if right == "interrupt-but-finish":
+        stages["right"]["cmd"] = [stages["right"]["cmd"],
+                                  f"{python} -c \"open('right.done', 'w').write('z')\""]
     (root / "dvc.yaml").write_text(yaml.safe_dump({"stages": stages}))
 
 
@@ -157,11 +165,23 @@ def test_a_failed_stage_stops_the_run_and_is_not_locked(project, capsys):
 def test_a_signal_reaches_the_running_stages_and_ends_the_run(project, monkeypatch):
     """Ctrl-C (or the session's SIGTERM): the commands get it (a training saves its checkpoint),
     nothing more starts, nothing half-done is locked, and the exit code says which signal."""
-    make_project(project, right="interrupt")
+    make_project(project, left="wait", right="interrupt")
     monkeypatch.setenv("RUNNER_PID", str(os.getpid()))  # inherited: no shell's ppid to rely on
+    since = time.monotonic()
     code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert time.monotonic() - since < 30  # left, waiting a minute, was ended by the signal
     assert code == 130 and set(seconds) == {"prep"}
     assert not (project / "left.json").exists() and not (project / "join.txt").exists()
+
+
+def test_a_stage_stopped_between_its_commands_is_not_locked(project, monkeypatch):
+    make_project(project, left="wait", right="interrupt-but-finish")
+    monkeypatch.setenv("RUNNER_PID", str(os.getpid()))
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert code == 130 and set(seconds) == {"prep"}
+    assert (project / "right.json").exists()  # its first command ignored the signal and finished
+    assert not (project / "right.done").exists()  # the second never started
+    assert set(yaml.safe_load((project / "dvc.lock").read_text())["stages"]) == {"prep"}
 
 
 def test_output_beside_other_stages_is_labelled_and_progress_bars_thinned(capsys):

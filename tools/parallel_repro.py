@@ -72,6 +72,7 @@ class Running:
     started: float
     echo: threading.Thread
     commands_left: list[str] = field(default_factory=list)
+    signalled: bool = False  # the stop signal was passed on (once: a second one kills a training)
 
 
 def echo_output(name: str, stream, prefix: bool) -> None:
@@ -132,10 +133,16 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
     failed, stop_signal = False, None
 
     def on_signal(signum, _frame):
+        # only noted here: the loop passes it on, so a command started while the handler ran
+        # (Popen returned, not yet in `running`) gets it too, and none gets it twice
         nonlocal stop_signal
         stop_signal = signum
+
+    def pass_on_stop_signal() -> None:
         for child in running.values():
-            child.process.send_signal(signum)
+            if stop_signal is not None and not child.signalled:
+                child.signalled = True
+                child.process.send_signal(stop_signal)
 
     previous_handlers = {sig: signal.signal(sig, on_signal)
                          for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -200,7 +207,9 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
                 if not ready(order, upstream, finished, started):
                     break  # nothing left that can start (a failure upstream)
                 continue
+            pass_on_stop_signal()
             time.sleep(0.2)
+            pass_on_stop_signal()
             for name, child in list(running.items()):
                 code = child.process.poll()
                 if code is None:
@@ -210,8 +219,11 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
                 if code != 0:
                     print(f"ERROR: failed to reproduce '{name}': exited with {code}", flush=True)
                     failed = True
-                elif child.commands_left and stop_signal is None:
-                    launch(name, child.commands_left[0], child.commands_left[1:], child.started)
+                elif child.commands_left:
+                    if stop_signal is None:
+                        launch(name, child.commands_left[0], child.commands_left[1:],
+                               child.started)
+                    # stopped between two of its commands: unfinished, so not locked
                 else:
                     commit(name, child.started)
     finally:
