@@ -545,10 +545,13 @@ class SegmentationParams:
     """Learning-rate factor from `lr_drop_epoch` on (paper: 1e-4 -> 1e-5)."""
     augment: AugmentParams = field(default_factory=AugmentParams)
     """Ranges of the random augmentations."""
+    threads: int = 1
+    """torch CPU threads. One: on 2 cores two threads ran about 4x slower than one, and a
+    single-threaded stage runs beside another one under `make repro` (tools/parallel_repro.py)."""
 
     def __post_init__(self) -> None:
         for name in ("base_channels", "depth", "epochs", "crops_per_image", "downsample",
-                     "pad_multiple", "crop", "batch_size"):
+                     "pad_multiple", "crop", "batch_size", "threads"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
         if self.lr_drop_epoch < 0:
@@ -635,12 +638,15 @@ class EvalParams:
     """Samples per window decoded together by the trajectory decoder."""
     bf16: bool = False
     """bfloat16 autocast for the convolutions (faster on CPUs with AMX; positions change slightly)."""
+    threads: int = 2
+    """torch CPU threads for scoring (training's are `ynet.<profile>.threads`: a model trained on
+    one thread, beside another training, is scored alone on every core)."""
     qualitative_scenes: list[str] = field(default_factory=lambda: ["hyang_0", "little_2", "nexus_6"])
     """Test scenes whose longest-moving window is drawn in the qualitative figure."""
 
     def __post_init__(self):
-        if min(self.k_e, self.k_a, self.rounds, self.batch_size, self.chunk_size) < 1:
-            raise ValueError("k_e, k_a, rounds, batch_size and chunk_size must be positive")
+        if min(self.k_e, self.k_a, self.rounds, self.batch_size, self.chunk_size, self.threads) < 1:
+            raise ValueError("k_e, k_a, rounds, batch_size, chunk_size and threads must be positive")
 
 
 @dataclass(frozen=True)
@@ -1011,6 +1017,8 @@ class ShortTermModelsParams:
     """Y-net: test windows per forward pass (one scene per batch)."""
     eval_chunk_size: int
     """Y-net: samples per window decoded together by the trajectory decoder."""
+    eval_threads: int
+    """Y-net: torch CPU threads for scoring (training's: `ynet.<profile>.threads`)."""
     bf16: bool
     """Y-net: bfloat16 autocast for the trajectory decoder (`ynet.sampling.predict`)."""
 
@@ -1030,8 +1038,8 @@ class ShortTermModelsParams:
                 or not all(0 <= value < 1 for value in self.rel_threshold.values())):
             raise ValueError(f"need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1 for each "
                              f"of {list(BENCHMARKS)}, got rel_threshold {self.rel_threshold}")
-        if min(self.eval_batch_size, self.eval_chunk_size) < 1:
-            raise ValueError("eval_batch_size and eval_chunk_size must be positive")
+        if min(self.eval_batch_size, self.eval_chunk_size, self.eval_threads) < 1:
+            raise ValueError("eval_batch_size, eval_chunk_size and eval_threads must be positive")
 
     def ks(self, dataset: str) -> list[int]:
         return self.k_sdd if dataset == "sdd" else self.k_ethucy

@@ -25,7 +25,7 @@ from pipeline.config import (CwsParams, EvalParams, HorizonParams, ParamsError, 
                              YnetSeedsParams, from_dict, load_profile, load_section, ynet_seed_slots)
 from pipeline.io import IntermediateError, index_value, read_json_index
 
-EVAL_KEYS = ("k_e", "k_a", "rounds", "seed", "batch_size", "chunk_size", "bf16")
+EVAL_KEYS = ("k_e", "k_a", "rounds", "seed", "batch_size", "chunk_size", "bf16", "threads")
 """The `eval.<profile>` keys a slot is scored with (the rest concern `evaluate_ynet` alone)."""
 
 

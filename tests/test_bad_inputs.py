@@ -131,7 +131,7 @@ SHORT_TERM_MODELS = {
     "ynet_sdd": SCALE, "ynet_ethucy": SCALE, "ynet_datasets": ["sdd"], "why_subset": "",
     "temperature": 1.0, "rel_threshold": {"sdd": 0.01, "ethucy": 0.01}, "k_sdd": [20, 5],
     "k_ethucy": [20], "rounds": 1,
-    "seed": 0, "eval_batch_size": 4, "eval_chunk_size": 4, "bf16": False,
+    "seed": 0, "eval_batch_size": 4, "eval_chunk_size": 4, "eval_threads": 2, "bf16": False,
 }
 IND_BENCHMARK = {"ynet_resize": 0.33, "segmentation_downsample": 3, "freeze_encoder_epochs": 0}
 
@@ -167,6 +167,7 @@ IND_BENCHMARK = {"ynet_resize": 0.33, "segmentation_downsample": 3, "freeze_enco
     (AugmentParams, {}, {"contrast": 1.0}, r"contrast must be in \[0, 1\), got 1.0"),
     (AugmentParams, {}, {"colour": -0.5}, r"colour must be in \[0, 1\), got -0.5"),
     (SegmentationParams, SEGMENTATION, {"epochs": 0}, r"epochs must be >= 1, got 0"),
+    (SegmentationParams, SEGMENTATION, {"threads": 0}, r"threads must be >= 1, got 0"),
     (SegmentationParams, SEGMENTATION, {"crop": 0}, r"crop must be >= 1, got 0"),
     (SegmentationParams, SEGMENTATION, {"lr_drop_epoch": -1}, r"lr_drop_epoch must be >= 0, got -1"),
     (SegmentationParams, SEGMENTATION, {"lr": 0}, r"need lr > 0 and 0 < lr_drop_factor <= 1, got 0, 0.1"),
@@ -175,8 +176,9 @@ IND_BENCHMARK = {"ynet_resize": 0.33, "segmentation_downsample": 3, "freeze_enco
     (SegmentationParams, SEGMENTATION, {"augment": {"blur_sigma": 0.1}},
      r"\.augment: blur_sigma must be >= 0.3, got 0.1"),  # nested: the key path is named
     (SemanticParams, {}, {"resize": 0}, r"resize must be in \(0, 1\], got 0"),
-    (EvalParams, {}, {"k_e": 0}, r"k_e, k_a, rounds, batch_size and chunk_size must be positive"),
-    (EvalParams, {}, {"chunk_size": 0}, r"k_e, k_a, rounds, batch_size and chunk_size must be positive"),
+    (EvalParams, {}, {"k_e": 0}, r"k_e, k_a, rounds, batch_size, chunk_size and threads must be positive"),
+    (EvalParams, {}, {"chunk_size": 0}, r"k_e, k_a, rounds, batch_size, chunk_size and threads must be positive"),
+    (EvalParams, {}, {"threads": 0}, r"k_e, k_a, rounds, batch_size, chunk_size and threads must be positive"),
     (HorizonParams, {}, {"epochs": {10: 0}}, r"epochs and rounds must be >= 1"),
     (HorizonParams, {}, {"rounds": 0}, r"epochs and rounds must be >= 1"),
     (TrainBaselineParams, {"seed": 0, "threads": 1}, {"threads": 0}, r"threads must be >= 1"),
@@ -223,7 +225,7 @@ IND_BENCHMARK = {"ynet_resize": 0.33, "segmentation_downsample": 3, "freeze_enco
     (ShortTermModelsParams, SHORT_TERM_MODELS, {"rel_threshold": {"sdd": 0.01}},
      r"need rounds >= 1, temperature > 0 and 0 <= rel_threshold < 1 for each of \['sdd', 'ethucy'\]"),
     (ShortTermModelsParams, SHORT_TERM_MODELS, {"eval_chunk_size": 0},
-     r"eval_batch_size and eval_chunk_size must be positive"),
+     r"eval_batch_size, eval_chunk_size and eval_threads must be positive"),
     (ShortTermModelsParams, SHORT_TERM_MODELS, {"ynet_ethucy": {**SCALE, "sigma": -1}},
      r"\.ynet_ethucy: need 0 < resize <= 1, sigma > 0"),  # nested: the key path is named
     (IndBenchmarkParams, IND_BENCHMARK, {"ynet_resize": 1.5}, r"ynet_resize must be in \(0, 1\], got 1.5"),

@@ -39,6 +39,8 @@ def test_a_stage_shares_the_machine_only_if_every_threads_key_it_declares_is_one
     two_sections = {"train_baseline": {"threads": 1}, "eval.cpu": {"threads": 2}}
     assert parallel_repro.sharing(two_sections) == ALONE
     assert parallel_repro.sharing({"profile": "cpu"}) == ALONE  # says nothing: runs alone
+    assert parallel_repro.sharing({"short_term_models.cpu.eval_threads": 2}) == ALONE
+    assert parallel_repro.sharing({"ynet.cpu": {"threads": 1}, "stm.cpu.eval_threads": 1}) == SHARED
     assert parallel_repro.sharing({"epochs": {5: 3, 10: 3}, "threads": 1}) == SHARED  # int keys
 
 
@@ -61,10 +63,12 @@ def test_a_stage_is_ready_once_its_upstream_stages_finished():
                                 {"prep", "left", "right"}) == ["join"]
 
 
-def make_project(root: Path, threads: int = 1, right: str = "", left: str = "") -> None:
+def make_project(root: Path, threads: int = 1, right: str = "", left: str = "",
+                 right_meta: int | None = None) -> None:
     """`right`: "fail" (exits 3), "interrupt" (sends the runner SIGINT) or "interrupt-but-finish"
     (sends it, ignores it, succeeds, and a second command follows), else it succeeds. `left`:
-    "wait" sleeps a minute unless a signal ends it."""
+    "wait" sleeps a minute unless a signal ends it. `right_meta`: right declares no params but
+    `meta: {threads: right_meta}`."""
     subprocess.run(["dvc", "init", "--no-scm", "-q"], cwd=root, check=True)
     (root / "step.py").write_text(STEP)
     (root / "params.yaml").write_text(f"job:\n  threads: {threads}\n  other: 5\n")
@@ -79,6 +83,9 @@ def make_project(root: Path, threads: int = 1, right: str = "", left: str = "") 
         "join": {"cmd": f"{python} -c \"open('join.txt', 'w').write('y')\"",
                  "deps": ["left.json", "right.json"], "outs": ["join.txt"]},
     }
+    if right_meta is not None:
+        del stages["right"]["params"]
+        stages["right"]["meta"] = {"threads": right_meta}
     if right == "interrupt-but-finish":
         stages["right"]["cmd"] = [stages["right"]["cmd"],
                                   f"{python} -c \"open('right.done', 'w').write('z')\""]
@@ -139,6 +146,26 @@ def test_stages_with_more_threads_or_one_job_run_one_at_a_time(project):
     code, seconds = parallel_repro.run_stages([], force=True, jobs=1, root=str(project))
     assert code == 0 and len(seconds) == 4
     assert not overlap(interval(project, "left"), interval(project, "right"))
+
+
+def test_a_stage_meta_threads_decides_over_the_params_it_passes_on(monkeypatch):
+    class Stage:
+        meta = {"threads": 1}
+
+    monkeypatch.setattr(parallel_repro, "params_of", lambda stage: {"eval.cpu": {"threads": 2}})
+    assert parallel_repro.sharing(parallel_repro.declared_threads(Stage())) == SHARED
+    Stage.meta = None  # no meta: the params decide
+    assert parallel_repro.sharing(parallel_repro.declared_threads(Stage())) == ALONE
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_data_step_declares_its_threads_in_its_meta(project, threads):
+    """A stage no param gives a thread count (a data step) says it in dvc.yaml's `meta`, which DVC
+    ignores: the lock is complete and clean either way."""
+    make_project(project, right_meta=threads)
+    assert parallel_repro.run_stages([], jobs=2, root=str(project))[0] == 0
+    assert overlap(interval(project, "left"), interval(project, "right")) == (threads == 1)
+    assert clean(project)
 
 
 def test_a_named_target_runs_with_what_it_depends_on_only(project):

@@ -479,6 +479,20 @@ def test_an_index_listing_no_maps_is_named(tmp_path):
         ynet_inputs(tmp_path / "maps", None, set(), {})
 
 
+def test_scoring_runs_on_the_scoring_params_threads_not_the_trainings(project):
+    """A model trained on one thread (beside another training) is scored on the threads the
+    scoring params give (`eval_threads`: alone on every core)."""
+    windows = project / "data" / "short_term"
+    bench, scenes_info = load_dataset(windows, "eth", N_PAST, N_FUTURE)
+    maps, sizes, _ = ynet_inputs(windows / "ethucy_semantic", None, {"eth"}, scenes_info)
+    try:
+        _, loaded, _ = load_for_scoring(project / "checkpoints" / "eth_ynet" / "best.pt",
+                                        bench.test, maps, sizes, threads=2)
+        assert loaded.threads == 1 and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(1)
+
+
 def test_a_cropped_qualitative_window_lies_where_scoring_puts_it(project):
     """`qualitative` on a crop adds the crop's origin back: its samples are `predict_scenes`'s
     (same seed, one window, one batch) in pixels of the resized map."""
@@ -487,7 +501,7 @@ def test_a_cropped_qualitative_window_lies_where_scoring_puts_it(project):
     bench, scenes_info = load_dataset(windows, "eth", N_PAST, N_FUTURE)
     maps, sizes, _ = ynet_inputs(windows / "ethucy_semantic", None, {"eth"}, scenes_info)
     model, loaded, scenes = load_for_scoring(project / "checkpoints" / "eth_ynet" / "best.pt",
-                                             bench.test, maps, sizes)
+                                             bench.test, maps, sizes, threads=1)
     assert loaded.crop == 32
     options = sampling_options(20, 1, TtstParams(), CwsParams(), True, False)
     scene, row = scenes[0], 2

@@ -9,8 +9,12 @@ a time; only the stages' commands run as child processes, up to `jobs` of them a
 one of them is single-threaded, otherwise alone. A stage starts only once every stage it depends
 on has finished, as with `dvc repro`; outputs and `dvc.lock` are therefore a serial run's.
 
-A stage counts as single-threaded when every `threads` key among its declared params (inside a
-declared section too) is 1; one that declares none, or another value, runs alone.
+A stage counts as single-threaded when its dvc.yaml `meta: {threads: N}` says 1 (the data steps,
+which no param gives a thread count) or, without one, when every `threads` key (or `eval_threads`
+and the like) among its declared params, inside a declared section too, is 1; one that declares
+none, or another value, runs alone. In the `cpu` profile: the baselines, the segmentation, every Y-net training, the
+short-term Y-net scoring and the data steps share; the long-term Y-net scoring runs alone on
+both cores.
 
     python tools/parallel_repro.py [--jobs N] [-f] [-s] [targets...]
 """
@@ -33,13 +37,14 @@ PROGRESS_EVERY_S = 30.0  # how often a concurrent stage's progress bar (lines en
 
 
 def thread_counts(params: Mapping[str, object]) -> list[object]:
-    """The value of every `threads` key among a stage's declared params, sections included:
-    {"train_baseline": {"seed": 0, "threads": 1}, "eval.cpu": {"threads": 2}} -> [1, 2]."""
+    """The value of every `threads` (or `..._threads`) key among a stage's declared params,
+    sections included: {"train_baseline": {"seed": 0, "threads": 1}, "eval.cpu": {"threads": 2},
+    "short_term_models.cpu.eval_threads": 2} -> [1, 2, 2]."""
     counts = []
     for key, value in params.items():
         if isinstance(value, Mapping):
             counts += thread_counts(value)
-        elif str(key).split(".")[-1] == "threads":
+        elif str(key).split(".")[-1].endswith("threads"):
             counts.append(value)
     return counts
 
@@ -125,7 +130,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         # dvc's graph has an edge from a stage to each stage that produces one of its deps
         upstream = {name: {dep.addressing for dep in graph.successors(stage)} & set(stages)
                     for name, stage in stages.items()}
-        kinds = {name: sharing(params_of(stage)) for name, stage in stages.items()}
+        kinds = {name: sharing(declared_threads(stage)) for name, stage in stages.items()}
     executable = get_executable()
 
     finished, started, seconds = set(), set(), {}
@@ -232,6 +237,14 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
     if stop_signal is not None:
         return 128 + stop_signal, seconds
     return (1 if failed else 0), seconds
+
+
+def declared_threads(stage) -> dict[str, object]:
+    """What `sharing` reads of a stage: its dvc.yaml `meta: {threads: N}` if it has one (what a
+    data step says of itself; DVC ignores `meta`, and a data step may declare another stage's
+    `threads` param to pass it on, as ynet_slot_scoring does), else its declared params."""
+    meta = stage.meta if isinstance(stage.meta, Mapping) else {}
+    return {"meta.threads": meta["threads"]} if "threads" in meta else params_of(stage)
 
 
 def params_of(stage) -> dict[str, object]:

@@ -315,7 +315,8 @@ def score_ynet(test: WindowArrays, maps: dict[str, np.ndarray], sizes: dict[str,
                kept: PredictionRounds | None = None) -> dict:
     """The best epoch in `folder` (its settings from the checkpoint) on test: the main result,
     ablation and K_a grid; `kept` receives the main result's rounds."""
-    model, ynet_settings, scenes = load_for_scoring(folder / "best.pt", test, maps, sizes, device)
+    model, ynet_settings, scenes = load_for_scoring(folder / "best.pt", test, maps, sizes,
+                                                    settings.eval.threads, device)
     params = settings.eval
     return {"n_windows": len(test), "rounds": params.rounds, "resize": ynet_settings.resize,
             **evaluation_sequence(model, scenes, ynet_settings, params, settings.ttst, settings.cws,

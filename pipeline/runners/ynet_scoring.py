@@ -59,13 +59,14 @@ def load_model(path: Path, device: torch.device = CPU) -> tuple[YNet, YnetSettin
 
 
 def load_for_scoring(path: Path, test: WindowArrays, semantic_maps: dict[str, np.ndarray],
-                     sizes: dict[str, tuple[int, int]], device: torch.device = CPU
+                     sizes: dict[str, tuple[int, int]], threads: int, device: torch.device = CPU
                      ) -> tuple[YNet, YnetSettings, list[SceneWindows]]:
-    """The checkpoint at `path` ready to score `test`: the model on `device`, torch's threads as its
-    training used and denormals flushed as training leaves them (the numbers of a run that trained
-    and scored in one process), and the windows grouped by scene at the model's resize."""
+    """The checkpoint at `path` ready to score `test`: the model on `device`, torch on `threads`
+    threads (the scoring params': a training may have run on one thread beside another) and
+    denormals flushed as training leaves them, and the windows grouped by scene at the model's
+    resize."""
     model, settings = load_model(path, device)
-    torch.set_num_threads(settings.threads)
+    torch.set_num_threads(threads)
     torch.set_flush_denormal(True)
     return model, settings, group_by_scene(test, semantic_maps, sizes, settings.resize, device)
 

@@ -13,7 +13,7 @@ dataset that was not trained gets the training stage's not-run record, an empty 
 and a qualitative file holding only `not_run_reason`, all giving the same reason. Params:
 `profile`, `runtime.device`, `short_term.n_past`, `short_term.n_future`,
 `short_term_models.<profile>`: `temperature`, `rel_threshold.<benchmark>`, `k_sdd` / `k_ethucy`, `rounds`,
-`seed`, `eval_batch_size`, `eval_chunk_size`, `bf16`.
+`seed`, `eval_batch_size`, `eval_chunk_size`, `eval_threads`, `bf16`.
 
     python -m pipeline.stages.evaluate_short_term_ynet --dataset eth --windows data/short_term \
         --maps data/short_term/ethucy_semantic --sdd data/raw/sdd \
@@ -88,7 +88,8 @@ def main(argv: list[str] | None = None) -> None:
     maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)
     image_of = scene_images(args.sdd, args.ethucy_scenes, ethucy_scenes)
     checkpoint = args.checkpoint_dir / "best.pt"
-    model, loaded, scenes = load_for_scoring(checkpoint, bench.test, maps, sizes, device)
+    model, loaded, scenes = load_for_scoring(checkpoint, bench.test, maps, sizes,
+                                             settings.eval_threads, device)
     ks = settings.ks(args.dataset)
     kept = PredictionRounds(bench.test.window_id)
     results, seconds, reported = score_ynet(model, loaded, scenes, bench, args.dataset, settings, ks,

@@ -60,7 +60,8 @@ def main(argv: list[str] | None = None) -> None:
     test = to_arrays(table[table["split"] == "test"], args.n_past)
     semantic_maps = load_semantic_maps(args.semantic_maps)
     model, settings, scenes = load_for_scoring(args.model, test, semantic_maps,
-                                               image_sizes(args.sdd, set(test.scene_id)), device)
+                                               image_sizes(args.sdd, set(test.scene_id)),
+                                               eval_params.threads, device)
 
     def after_main(result: dict) -> None:
         result["seconds_per_window"] = result["main_seconds"] / (len(test) * eval_params.rounds)

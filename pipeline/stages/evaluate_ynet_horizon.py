@@ -78,7 +78,8 @@ def score(args: argparse.Namespace, trained: dict, scoring: SlotScoring) -> None
     semantic_maps = load_semantic_maps(args.semantic_maps)
     checkpoint = args.checkpoint_dir / "best.pt"
     model, settings, scenes = load_for_scoring(checkpoint, test, semantic_maps,
-                                               image_sizes(args.sdd, set(test.scene_id)), device)
+                                               image_sizes(args.sdd, set(test.scene_id)),
+                                               eval_params.threads, device)
     options = sampling_options(eval_params.k_e, 1, scoring.ttst, scoring.cws, True, True)
     start = time.perf_counter()
     kept = PredictionRounds(test.window_id)

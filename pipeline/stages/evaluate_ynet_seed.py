@@ -73,7 +73,8 @@ def score(args: argparse.Namespace, trained: dict, scoring: SlotScoring) -> None
     test = to_arrays(table[table["split"] == "test"], args.n_past)
     semantic_maps = load_semantic_maps(args.semantic_maps)
     model, settings, scenes = load_for_scoring(args.checkpoint_dir / "best.pt", test, semantic_maps,
-                                               image_sizes(args.sdd, set(test.scene_id)), device)
+                                               image_sizes(args.sdd, set(test.scene_id)),
+                                               eval_params.threads, device)
     scores = evaluation_sequence(model, scenes, settings, eval_params, scoring.ttst, scoring.cws,
                                  test.future, extras=False)
     write_json({"profile": scoring.profile, "t_f": int(test.future.shape[1]),

@@ -36,15 +36,12 @@ def main(argv: list[str] | None = None) -> None:
                         help="per-epoch checkpoint (kept between runs to resume)")
     parser.add_argument("--model", type=Path, required=True, help="trained weights to write")
     parser.add_argument("--log", type=Path, required=True, help="per-epoch training log CSV")
-    parser.add_argument("--threads", type=int, default=1,
-                        help="torch threads; 1 by default: on a shared 2-core machine two threads "
-                             "wait on each other and run ~4x slower than one")
     args = parser.parse_args(argv)
     raw = read_params()
     params = load_profile(SegmentationParams, "segmentation", raw)
     runtime = load_section(RuntimeParams, "runtime", raw)
     profile = raw["profile"]
-    torch.set_num_threads(args.threads)
+    torch.set_num_threads(params.threads)
     device = select_device(runtime.device)
 
     index = read_index(args.labels)

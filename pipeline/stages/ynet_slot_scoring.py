@@ -5,7 +5,7 @@ Writes `<out>/<slot>.json` for every `evaluate_ynet_horizon@<t_f>` (slot `tf<t_f
 trains, `{slot, scored: false}` for the others (`pipeline.slot_scoring`). The evaluation stages
 depend on their own file instead of the sampling params, so a slot the profile does not train is
 not re-run by `dvc exp run -S ttst.temperature=...`. Params: `profile`, `ttst`, `cws`,
-`eval.<profile>` (k_e, k_a, rounds, seed, batch_size, chunk_size, bf16),
+`eval.<profile>` (k_e, k_a, rounds, seed, batch_size, chunk_size, bf16, threads),
 `ynet_horizons.<profile>` (epochs, rounds), `ynet_seeds.slots`, `ynet_seeds.<profile>.seeds`,
 `windows.horizons`, `windows.release_horizon`.
 
