@@ -1,9 +1,8 @@
 """`dvc repro` that runs two single-threaded stages at once: the second core is not left idle.
 
-`dvc repro` runs one stage at a time. Most of this pipeline's stages use both cores (Y-net, the
-segmentation), but the baselines train and score with one torch thread (`train_baseline.threads`
-1: about an hour of the `cpu` profile's stage time, README), so during those the other core
-idles. Here DVC's own stage objects do everything DVC would (the staleness check, removing the
+`dvc repro` runs one stage at a time. In the `cpu` profile most of the stage time is
+single-threaded (the baselines, the segmentation, every Y-net training, the short-term Y-net
+scoring: README "Quick start"), so one at a time the other core idles. Here DVC's own stage objects do everything DVC would (the staleness check, removing the
 outputs, the run cache, hashing, committing, the lock update), all in this one process and one at
 a time; only the stages' commands run as child processes, up to `jobs` of them at once when every
 one of them is single-threaded, otherwise alone. A stage starts only once every stage it depends
@@ -12,9 +11,8 @@ on has finished, as with `dvc repro`; outputs and `dvc.lock` are therefore a ser
 A stage counts as single-threaded when its dvc.yaml `meta: {threads: N}` says 1 (the data steps,
 which no param gives a thread count) or, without one, when every `threads` key (or `eval_threads`
 and the like) among its declared params, inside a declared section too, is 1; one that declares
-none, or another value, runs alone. In the `cpu` profile: the baselines, the segmentation, every Y-net training, the
-short-term Y-net scoring and the data steps share; the long-term Y-net scoring runs alone on
-both cores.
+none, or another value, runs alone; in the `cpu` profile only the long-term Y-net scoring, the
+semantic maps, the animations and the report do.
 
     python tools/parallel_repro.py [--jobs N] [-f] [-s] [targets...]
 """
@@ -144,8 +142,10 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         stop_signal = signum
 
     def pass_on_stop_signal() -> None:
+        if stop_signal is None:
+            return
         for child in running.values():
-            if stop_signal is not None and not child.signalled:
+            if not child.signalled:
                 child.signalled = True
                 child.process.send_signal(stop_signal)
 
@@ -156,8 +156,8 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         stage = stages[name]
         kwargs = prepare_kwargs(stage)
         print(f"> {command}", flush=True)
-        # its own process group: Ctrl-C reaches it once, forwarded by on_signal (a second
-        # signal would stop a training without its checkpoint)
+        # its own process group: Ctrl-C reaches it once, passed on by pass_on_stop_signal (a
+        # second signal would stop a training without its checkpoint)
         process = subprocess.Popen(_make_cmd(executable, command), stdout=subprocess.PIPE,
                                    stderr=subprocess.STDOUT, start_new_session=True, **kwargs)
         echo = threading.Thread(target=echo_output, args=(name, process.stdout, jobs > 1),
@@ -212,7 +212,6 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
                 if not ready(order, upstream, finished, started):
                     break  # nothing left that can start (a failure upstream)
                 continue
-            pass_on_stop_signal()
             time.sleep(0.2)
             pass_on_stop_signal()
             for name, child in list(running.items()):
