@@ -189,9 +189,16 @@ def test_a_failed_stage_stops_the_run_and_is_not_locked(project, capsys):
     assert "failed to reproduce 'right': exited with 3" in capsys.readouterr().out
 
 
-def test_a_signal_reaches_the_running_stages_and_ends_the_run(project, monkeypatch):
+# DVC runs a command through $SHELL, else /bin/sh. bash execs a lone command; dash (/bin/sh on
+# Debian, and CI sets no SHELL) forks it, so the signal must go to the command's process group
+SHELLS = pytest.mark.parametrize("shell", ["/bin/bash", "/bin/sh"])
+
+
+@SHELLS
+def test_a_signal_reaches_the_running_stages_and_ends_the_run(project, monkeypatch, shell):
     """Ctrl-C (or the session's SIGTERM): the commands get it (a training saves its checkpoint),
     nothing more starts, nothing half-done is locked, and the exit code says which signal."""
+    monkeypatch.setenv("SHELL", shell)
     make_project(project, left="wait", right="interrupt")
     monkeypatch.setenv("RUNNER_PID", str(os.getpid()))  # inherited: no shell's ppid to rely on
     since = time.monotonic()
@@ -201,7 +208,9 @@ def test_a_signal_reaches_the_running_stages_and_ends_the_run(project, monkeypat
     assert not (project / "left.json").exists() and not (project / "join.txt").exists()
 
 
-def test_a_stage_stopped_between_its_commands_is_not_locked(project, monkeypatch):
+@SHELLS
+def test_a_stage_stopped_between_its_commands_is_not_locked(project, monkeypatch, shell):
+    monkeypatch.setenv("SHELL", shell)
     make_project(project, left="wait", right="interrupt-but-finish")
     monkeypatch.setenv("RUNNER_PID", str(os.getpid()))
     code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))

@@ -147,7 +147,13 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         for child in running.values():
             if not child.signalled:
                 child.signalled = True
-                child.process.send_signal(stop_signal)
+                # to the command's process group: where /bin/sh is dash (no SHELL set, as in
+                # CI) the shell forks the command instead of exec'ing it, and a signal to the
+                # shell alone would never reach the training
+                try:
+                    os.killpg(child.process.pid, stop_signal)
+                except ProcessLookupError:
+                    pass  # ended already; poll() will say how
 
     previous_handlers = {sig: signal.signal(sig, on_signal)
                          for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -156,8 +162,8 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         stage = stages[name]
         kwargs = prepare_kwargs(stage)
         print(f"> {command}", flush=True)
-        # its own process group: Ctrl-C reaches it once, passed on by pass_on_stop_signal (a
-        # second signal would stop a training without its checkpoint)
+        # its own process group: Ctrl-C reaches it once, passed on to the group by
+        # pass_on_stop_signal (a second signal would stop a training without its checkpoint)
         process = subprocess.Popen(_make_cmd(executable, command), stdout=subprocess.PIPE,
                                    stderr=subprocess.STDOUT, start_new_session=True, **kwargs)
         echo = threading.Thread(target=echo_output, args=(name, process.stdout, jobs > 1),
