@@ -63,8 +63,7 @@ def main() -> None:
     ids = ids[np.unique(np.linspace(0, len(ids) - 1, min(args.windows, len(ids))).astype(int))]
     test = to_arrays(table[table["window_id"].isin(ids)], params["windows"]["n_past"])
     model, settings, scenes = load_for_scoring(MODEL, test, load_semantic_maps(MAPS),
-                                               image_sizes(SDD, set(test.scene_id)))
-    torch.set_num_threads(args.threads)  # after load_for_scoring, which sets the training's
+                                               image_sizes(SDD, set(test.scene_id)), args.threads)
     samplings = setting_samplings(sequence_settings(evaluation, ttst, cws), evaluation.seed)
     n = len(test)
     warm = [scenes[0].subset(np.arange(1))]

@@ -24,31 +24,22 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench import long_term_validation  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
                              load_section, read_params)
 from pipeline.device import cpu_has_bf16  # noqa: E402
-from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
-from pipeline.data.window_table import to_arrays  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402
-from pipeline.runners.ynet_scoring import (load_for_scoring, predict_scenes,  # noqa: E402
-                                           sampling_options)
-from pipeline.runners.ynet_training import image_sizes  # noqa: E402
+from pipeline.runners.ynet_scoring import predict_scenes, sampling_options  # noqa: E402
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--windows", type=Path, default=Path("data/windows/release_tf30.parquet"))
-    parser.add_argument("--model", type=Path, default=Path("data/ynet/model.pt"))
-    parser.add_argument("--semantic-maps", type=Path, default=Path("data/semantic_maps"))
-    parser.add_argument("--sdd", type=Path, default=Path("data/raw/sdd"))
-    parser.add_argument("--n-past", type=int, default=5)
-    parser.add_argument("--threads", type=int, default=2)
+    long_term_validation.add_arguments(parser)
     args = parser.parse_args()
     keep_freed_memory()
 
@@ -56,12 +47,7 @@ def main() -> None:
     eval_params = load_profile(EvalParams, "eval", {**params, "profile": "cpu"})
     options = sampling_options(eval_params.k_e, eval_params.k_a, load_section(TtstParams, "ttst", params),
                                load_section(CwsParams, "cws", params), True, True)
-    table = pd.read_parquet(args.windows)
-    val = to_arrays(table[table["split"] == "val"], args.n_past)
-    model, settings, scenes = load_for_scoring(args.model, val, load_semantic_maps(args.semantic_maps),
-                                               image_sizes(args.sdd, set(val.scene_id)),
-                                               torch.device("cpu"))
-    torch.set_num_threads(args.threads)
+    model, settings, scenes, val = long_term_validation.load(args)
     print(f"torch {torch.__version__}, {args.threads} threads; {len(val)} validation windows, "
           f"K_e {options.K_e} x K_a {options.K_a}, model {args.model}")
 

@@ -1,0 +1,40 @@
+"""The trained long-term Y-net and the release's validation windows, for benches.
+
+Shared by `bench_long_term_bf16.py` and `bench_long_term_ttst.py` (not a bench itself: `make
+bench` runs `bench_*.py` only). Validation windows only: benches never look at the test set.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from pipeline.data.semantic_maps import load_semantic_maps
+from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline.data.ynet_data import SceneWindows
+from pipeline.runners.ynet_scoring import load_for_scoring
+from pipeline.runners.ynet_training import YnetSettings, image_sizes
+from ynet.model import YNet
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options every long-term Y-net validation bench takes."""
+    parser.add_argument("--windows", type=Path, default=Path("data/windows/release_tf30.parquet"))
+    parser.add_argument("--model", type=Path, default=Path("data/ynet/model.pt"))
+    parser.add_argument("--semantic-maps", type=Path, default=Path("data/semantic_maps"))
+    parser.add_argument("--sdd", type=Path, default=Path("data/raw/sdd"))
+    parser.add_argument("--n-past", type=int, default=5)
+    parser.add_argument("--threads", type=int, default=2)
+
+
+def load(args: argparse.Namespace) -> tuple[YNet, YnetSettings, list[SceneWindows], WindowArrays]:
+    """The model on `args.threads` threads, its validation windows grouped by scene, and the
+    windows themselves (original pixels)."""
+    table = pd.read_parquet(args.windows)
+    val = to_arrays(table[table["split"] == "val"], args.n_past)
+    model, settings, scenes = load_for_scoring(args.model, val, load_semantic_maps(args.semantic_maps),
+                                               image_sizes(args.sdd, set(val.scene_id)),
+                                               args.threads)
+    return model, settings, scenes, val
