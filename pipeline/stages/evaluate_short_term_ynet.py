@@ -82,7 +82,6 @@ def main(argv: list[str] | None = None) -> None:
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     windows = load_section(ShortTermParams, "short_term", params)
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
-    print(f"evaluate_short_term_ynet: on {describe(device)}")
 
     bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
     maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)
@@ -90,6 +89,7 @@ def main(argv: list[str] | None = None) -> None:
     checkpoint = args.checkpoint_dir / "best.pt"
     model, loaded, scenes = load_for_scoring(checkpoint, bench.test, maps, sizes,
                                              settings.eval_threads, device)
+    print(f"evaluate_short_term_ynet: on {describe(device)}")  # after: loading sets the threads
     ks = settings.ks(args.dataset)
     kept = PredictionRounds(bench.test.window_id)
     results, seconds, reported = score_ynet(model, loaded, scenes, bench, args.dataset, settings, ks,
