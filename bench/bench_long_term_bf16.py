@@ -30,8 +30,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import long_term_validation  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
-                             load_section, read_params)
 from pipeline.device import cpu_has_bf16  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402
 from pipeline.runners.ynet_scoring import predict_scenes, sampling_options  # noqa: E402
@@ -43,11 +41,10 @@ def main() -> None:
     args = parser.parse_args()
     keep_freed_memory()
 
-    params = read_params()
-    eval_params = load_profile(EvalParams, "eval", {**params, "profile": "cpu"})
-    options = sampling_options(eval_params.k_e, eval_params.k_a, load_section(TtstParams, "ttst", params),
-                               load_section(CwsParams, "cws", params), True, True)
-    model, settings, scenes, val = long_term_validation.load(args)
+    trained = long_term_validation.load(args)
+    model, settings, scenes, val = trained.model, trained.settings, trained.scenes, trained.val
+    eval_params = trained.eval_params
+    options = sampling_options(eval_params.k_e, eval_params.k_a, trained.ttst, trained.cws, True, True)
     print(f"torch {torch.__version__}, {args.threads} threads; {len(val)} validation windows, "
           f"K_e {options.K_e} x K_a {options.K_a}, model {args.model}")
 

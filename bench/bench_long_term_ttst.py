@@ -27,8 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench import long_term_validation  # noqa: E402
 from bench.bench_short_term_ttst import ttst_grid  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
-                             load_section, read_params)
+from pipeline.config import TtstParams  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options  # noqa: E402
 
@@ -43,18 +42,17 @@ def main() -> None:
     args = parser.parse_args()
     keep_freed_memory()
 
-    params = read_params()
-    eval_params = load_profile(EvalParams, "eval", {**params, "profile": "cpu"})
-    ttst, cws = load_section(TtstParams, "ttst", params), load_section(CwsParams, "cws", params)
+    trained = long_term_validation.load(args)
+    eval_params, ttst, val = trained.eval_params, trained.ttst, trained.val
     grid = ttst_grid(args.temperatures, args.thresholds, (ttst.temperature, ttst.rel_threshold))
     seeds = [eval_params.seed + r for r in range(args.rounds)]
     samplings = [Sampling(sampling_options(eval_params.k_e, eval_params.k_a,
-                                           TtstParams(temperature=t, rel_threshold=r), cws,
+                                           TtstParams(temperature=t, rel_threshold=r), trained.cws,
                                            True, True), seed)
                  for t, r in grid for seed in seeds]
-    model, settings, scenes, val = long_term_validation.load(args)
     began = time.perf_counter()
-    sampled, _ = predict_samplings(model, scenes, settings, samplings, eval_params, len(val),
+    sampled, _ = predict_samplings(trained.model, trained.scenes, trained.settings, samplings,
+                                   eval_params, len(val),
                                    f"Y-net K_e={eval_params.k_e} K_a={eval_params.k_a}")
     seconds = time.perf_counter() - began
     print(f"{len(val)} val windows, K_e {eval_params.k_e} x K_a {eval_params.k_a} (TTST + CWS), "

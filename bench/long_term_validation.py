@@ -1,4 +1,5 @@
-"""The trained long-term Y-net and the release's validation windows, for benches.
+"""The trained long-term Y-net, the release's validation windows and the `cpu` scoring params, for
+benches.
 
 Shared by `bench_long_term_bf16.py` and `bench_long_term_ttst.py` (not a bench itself: `make
 bench` runs `bench_*.py` only). Validation windows only: benches never look at the test set.
@@ -7,10 +8,13 @@ bench` runs `bench_*.py` only). Validation windows only: benches never look at t
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
+from pipeline.config import (CwsParams, EvalParams, TtstParams, WindowParams, load_profile,
+                             load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays, to_arrays
 from pipeline.data.ynet_data import SceneWindows
@@ -19,22 +23,36 @@ from pipeline.runners.ynet_training import YnetSettings, image_sizes
 from ynet.model import YNet
 
 
+@dataclass
+class TrainedOnValidation:
+    model: YNet
+    settings: YnetSettings  # the checkpoint's
+    val: WindowArrays  # original pixels
+    scenes: list[SceneWindows]  # val grouped by scene, at the model's resize
+    eval_params: EvalParams  # eval.cpu: K_e, K_a, seed, bf16
+    ttst: TtstParams
+    cws: CwsParams
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options every long-term Y-net validation bench takes."""
     parser.add_argument("--windows", type=Path, default=Path("data/windows/release_tf30.parquet"))
     parser.add_argument("--model", type=Path, default=Path("data/ynet/model.pt"))
     parser.add_argument("--semantic-maps", type=Path, default=Path("data/semantic_maps"))
     parser.add_argument("--sdd", type=Path, default=Path("data/raw/sdd"))
-    parser.add_argument("--n-past", type=int, default=5)
     parser.add_argument("--threads", type=int, default=2)
 
 
-def load(args: argparse.Namespace) -> tuple[YNet, YnetSettings, list[SceneWindows], WindowArrays]:
-    """The model on `args.threads` threads, its validation windows grouped by scene, and the
-    windows themselves (original pixels)."""
+def load(args: argparse.Namespace) -> TrainedOnValidation:
+    """The model on `args.threads` threads and its validation windows (`windows.n_past` observed
+    steps), with the `cpu` profile's scoring params from params.yaml."""
+    params = read_params()
     table = pd.read_parquet(args.windows)
-    val = to_arrays(table[table["split"] == "val"], args.n_past)
+    val = to_arrays(table[table["split"] == "val"], load_section(WindowParams, "windows", params).n_past)
     model, settings, scenes = load_for_scoring(args.model, val, load_semantic_maps(args.semantic_maps),
                                                image_sizes(args.sdd, set(val.scene_id)),
                                                args.threads)
-    return model, settings, scenes, val
+    return TrainedOnValidation(model, settings, val, scenes,
+                               load_profile(EvalParams, "eval", {**params, "profile": "cpu"}),
+                               load_section(TtstParams, "ttst", params),
+                               load_section(CwsParams, "cws", params))
