@@ -150,7 +150,8 @@ def tiny_params() -> dict:
     both = lambda section: {"cpu": section, "paper": section}  # noqa: E731
     return {"profile": "cpu", "short_term": real["short_term"], "runtime": real["runtime"],
             "train_baseline": {"seed": 0, "threads": 1}, "ynet": both(ynet),
-            "short_term_models": both(short), "sgan": both(sgan), "pecnet": both(pecnet)}
+            "short_term_models": both(short), "sgan": both(sgan), "pecnet": both(pecnet),
+            "short_term_baselines": real["short_term_baselines"]}
 
 
 @pytest.fixture(scope="module")
