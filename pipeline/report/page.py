@@ -4,7 +4,8 @@ Reads every metrics file that exists (each one defensively: a missing or malform
 explained absence, never a blank or a made-up number), the paper's values
 (`pipeline/report/paper_values.yaml`), the params and the data manifests, and writes
 
-- `reports/index.html` (jinja2, no scripts, no network): Tables 1-4 cell by cell (paper, ours as
+- `reports/index.html` (jinja2, no scripts, no network): the paper's claims in words, each with
+  ours and a verdict (`pipeline.report.claims`); Tables 1-4 cell by cell (paper, ours as
   mean and spread over evaluation rounds, relative difference coloured by size; every model
   registered in params.yaml `models`, README "Your model here", as a Table 3 column of its own,
   ours only: the paper has no value for it; each paper cell marked with who measured it and, where
@@ -75,6 +76,7 @@ import yaml
 from pipeline.config import ReportParams
 from pipeline.models import ModelEntry
 from pipeline.report.beyond import beyond_section
+from pipeline.report.claims import claims_section
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)
 from pipeline.report.provenance import (PROTOCOL_KEYS, PROTOCOL_LABELS, PROTOCOLS,
@@ -1322,6 +1324,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         "protocol_labels": PROTOCOL_LABELS, "protocol_lines": PROTOCOLS,
         "protocol_keys": PROTOCOL_KEYS,
         "summaries": [summarize(t) for t in tables],
+        "claims": claims_section(store, paper),
         "tables": tables,
         **figures,
         "beyond": beyond_section(store, LONG_TERM_TF, horizon_models(registered),
