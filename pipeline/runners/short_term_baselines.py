@@ -26,6 +26,7 @@ from typing import Any
 import pandas as pd
 
 from pipeline.harness.baseline_runs import model_config
+from pipeline.io import IntermediateError
 from pipeline.runners.short_term import Benchmark, benchmark_of, load_benchmark, table_path, unit_of
 
 SECTION = "short_term_baselines"
@@ -44,9 +45,13 @@ def benchmark_in_unit(table: pd.DataFrame, dataset: str, n_past: int, n_future: 
 
 
 def load_in_unit(windows: Path, dataset: str, n_past: int, n_future: int) -> Benchmark:
-    """`benchmark_in_unit` of `dataset`'s table in the `short_term_windows` folder."""
+    """`benchmark_in_unit` of `dataset`'s table in the `short_term_windows` folder; a table it
+    cannot use is named (`IntermediateError`)."""
     path = table_path(windows, dataset)
-    return benchmark_in_unit(pd.read_parquet(path), dataset, n_past, n_future)
+    try:
+        return benchmark_in_unit(pd.read_parquet(path), dataset, n_past, n_future)
+    except ValueError as error:
+        raise IntermediateError(f"{path}: {error}") from None
 
 
 def overrides(params: Mapping[str, Any], model: str, dataset: str) -> dict[str, Any]:
