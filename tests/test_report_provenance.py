@@ -234,7 +234,9 @@ NOTED = provenance.CellSource("ynet_authors", "Y-net authors' retrain", "indepen
 
 @pytest.mark.parametrize("headline, own, seeds, source, verdict", [
     (0.10, None, None, AUTHORS, "match"),
-    (-0.15, 0.40, None, QUOTED, "match"),  # the headline decides a match
+    (-0.15, 0.10, None, QUOTED, "match"),  # within under both protocols
+    (-0.15, 0.40, None, QUOTED, "unknown"),  # the cell's own protocol decides, not the headline
+    (-0.15, None, None, QUOTED, "match"),  # not scored under its own protocol: the headline
     (0.50, 0.15, None, QUOTED, "protocol"),
     (0.50, 0.45, (90.0, 110.0, 3), QUOTED, "seed spread"),  # paper 100 within our seeds
     (0.50, None, (101.0, 110.0, 3), AUTHORS, "unknown"),  # paper 100 outside them

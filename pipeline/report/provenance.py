@@ -310,13 +310,17 @@ def within(diff: float | None, far: float) -> bool:
 
 def why_differs(paper: float, headline_diff: float | None, own_diff: float | None, far: float,
                 source: CellSource | None, seeds: tuple[float, float, int] | None = None) -> Why:
-    """`match` when ours (headline) is within `far` of the paper; else the first cause that
-    holds: `protocol` (ours under the cell's own protocol is within `far`), `seed spread` (the
-    paper's number lies within our range over training seeds), the yaml's note, `unknown`."""
-    if within(headline_diff, far):
-        return Why("match")
+    """How a cell stands. Where ours is scored under the cell's own protocol, that number decides
+    (a headline within `far` does not make a match when the cell's own protocol does not);
+    elsewhere the headline does. `match` when the deciding number is within `far` and so is the
+    headline; `protocol` when only ours under the cell's own protocol is; otherwise the first
+    cause that holds: `seed spread` (the paper's number lies within our range over training
+    seeds), the yaml's note, `unknown`."""
     protocol = source.protocol if source else HEADLINE_PROTOCOL
-    if within(own_diff, far):
+    own_scored = own_diff is not None and protocol not in (HEADLINE_PROTOCOL, "unknown")
+    if within(own_diff if own_scored else headline_diff, far):
+        if within(headline_diff, far):
+            return Why("match")
         return Why("protocol", f"within {far:.0%} under {PROTOCOL_LABELS[protocol]} "
                                f"({own_diff * 100:+.1f} %)")
     if seeds is not None and seeds[0] <= paper <= seeds[1]:
@@ -324,6 +328,9 @@ def why_differs(paper: float, headline_diff: float | None, own_diff: float | Non
                                   f"{seeds[0]:.2f}-{seeds[1]:.2f}")
     if source is not None and source.differs_because is not None:
         return Why(source.differs_because.cause, source.differs_because.note)
+    if own_scored and within(headline_diff, far):
+        return Why("unknown", f"within {far:.0%} under our headline protocol, "
+                              f"{own_diff * 100:+.1f} % under {PROTOCOL_LABELS[protocol]}")
     return Why("unknown", "no protocol, seed or source explanation")
 
 
