@@ -208,6 +208,29 @@ def test_per_scene_means(project):
     assert hyang["ground_truth"]["copresent_share"] == 0.0
 
 
+def test_sgan_sequence_metrics_over_windows_that_start_together(project):
+    """Windows 10 and 11 (gates_2) start at frame 0: one sequence; window 20 (hyang_0) is its own.
+    The triangle's samples are as far from the truth at both steps (2^0.5, 2^0.5, 2), so ADE and
+    FDE agree. Round 0: gates min(2 2^0.5, 2 2^0.5, 4) / 2, hyang 2^0.5. Round 1: window 10's
+    samples 577^0.5, 677^0.5, 629^0.5 with window 11's 2^0.5, 2^0.5, 2: (577^0.5 + 2^0.5) / 2;
+    hyang 842^0.5. Over all: sum of the sequence minima / 3 windows."""
+    record = run(project)
+    got = record["tables"]["tf2"]["models"]["triangle"]
+    r2, r577, r842 = math.sqrt(2), math.sqrt(577), math.sqrt(842)
+    gates, hyang = [r2, (r577 + r2) / 2], [r2, r842]
+    for name in ("ade_sgan_sequence", "fde_sgan_sequence"):
+        assert got["metrics"][name]["per_round"] == pytest.approx([r2, (r577 + r2 + r842) / 3])
+        for scene, per_round in (("gates_2", gates), ("hyang_0", hyang)):
+            assert got["per_scene"][scene]["metrics"][name] == pytest.approx(
+                {"mean": np.mean(per_round), "std": np.std(per_round)}), (name, scene)
+    # Y-net: FDE on the goals (5, 10, 30 px for both gates windows, 50 for hyang's): gates
+    # min(10, 20, 60) + 50 = 60 over 3 windows; per scene 10 / 2 and 50. Paths on the truth: ADE 0.
+    ynet = record["tables"]["tf2"]["models"]["ynet"]
+    assert ynet["metrics"]["fde_sgan_sequence"]["per_round"] == pytest.approx([20.0])
+    assert ynet["per_scene"]["gates_2"]["metrics"]["fde_sgan_sequence"]["mean"] == 5.0
+    assert ynet["metrics"]["ade_sgan_sequence"]["per_round"] == [0.0]
+
+
 def test_goals_are_the_endpoints_of_fde_best_endpoint_and_miss(project):
     record = run(project)
     for name in ("tf2", "release_tf2"):  # the release-style table: the same windows, other ids
@@ -313,6 +336,9 @@ def test_ind_provided_scores_with_its_scales_and_the_masks_it_has(project):
     # Off limits only where a mask exists: round 0 windows 10, 11 (0, 1/2); round 1 window 11.
     assert m["off_limits_share"]["per_round"] == pytest.approx([1 / 4, 1 / 2])
     assert ind["models"]["triangle"]["ground_truth"]["off_limits_share"] == pytest.approx(1 / 4)
+    # Windows 10 and 11 start together in recording 00, as in gates_2: the same sequences.
+    assert m["ade_sgan_sequence"]["per_round"] == pytest.approx(
+        [math.sqrt(2), (math.sqrt(577) + math.sqrt(2) + math.sqrt(842)) / 3])
 
 
 def test_ind_train_window_ids_are_not_in_the_test_split(project):

@@ -230,6 +230,34 @@ def test_min_ade_fde_equal_the_runs_per_round_numbers(project):
                     [r[key] for r in scores["per_round"]], rel=1e-12, abs=1e-12), (dataset, key)
 
 
+def test_sgan_sequence_metrics_take_one_sample_per_sequence(project):
+    """Windows 0 and 1 start at the same frame of zara1: one S-GAN sequence. K = 2, offsets (m)
+    from the truth at every step: round 0 window 0 (0, 1), window 1 (1, 0): min-ADE 0 per window,
+    but a sample for both sums to 1: 1 / 2 windows. Round 1 window 0 (1, 3), window 1 (2, 0):
+    min-ADE (1 + 0) / 2, sequence min(3, 3) / 2. FDE alike (the offsets are the same each step)."""
+    root, _ = project
+    truth = np.array([ZARA[0][0], ZARA[1][0]])  # (2, T, 2) m
+    kept = PredictionRounds(np.array([0, 1]))
+    for seed, offsets in ((3, [[0.0, 1.0], [1.0, 0.0]]), (4, [[1.0, 3.0], [2.0, 0.0]])):
+        north = np.array(offsets)[:, :, None, None] * [0.0, 1.0]  # (N, K, 1, 2)
+        kept.add(seed, truth[:, None] + north)
+    kept.write(root / "predictions" / "zara1" / "pecnet.parquet",
+               runner.prediction_metadata(root / "short_term", "zara1", "pecnet", [2]))
+    zara = run(root)["benchmarks"]["zara1"]["models"]
+    got = zara["pecnet"]
+    for name in ("ade", "fde"):
+        check(got["metrics"], name, [0.0, 0.5])
+    for name in ("ade_sgan_sequence", "fde_sgan_sequence"):
+        check(got["metrics"], name, [0.5, 1.5])
+        assert got["per_scene"]["zara1"]["metrics"][name] == pytest.approx({"mean": 1.0,
+                                                                            "std": 0.5})
+    # The keys come after every other metric; S-GAN's symmetric triangles give min-ADE again.
+    assert list(got["metrics"])[-2:] == ["ade_sgan_sequence", "fde_sgan_sequence"]
+    m, far = zara["sgan"]["metrics"], math.sqrt(0.1 ** 2 + (SHIFT - 0.1) ** 2)
+    for name in ("ade_sgan_sequence", "fde_sgan_sequence"):
+        check(m, name, [0.1 * math.sqrt(2), (far + 0.1 * math.sqrt(2)) / 2])
+
+
 def test_models_not_run_are_listed_with_their_reason(project):
     root, _ = project
     record = run(root)["benchmarks"]
@@ -296,7 +324,8 @@ def test_ethucy_collisions_pair_only_windows_that_start_together():
                        [[1.1, 0.0], [2.0, 0.0]]])
     truth = stored_scores.WindowTruth(Path("t.parquet"), np.arange(3), future,
                                       np.array([[20, 30], [20, 30], [30, 40]]),
-                                      np.array(["zara1"] * 3), np.array([1, 2, 2]), 2)
+                                      np.array([0, 0, 10]), np.array(["zara1"] * 3),
+                                      np.array([1, 2, 2]), 2)
     samples = future[:, None]  # K = 1: the truth itself
     for same_start, hits, copresent in ((False, [1.0, 0.0, 1.0], [True, True, True]),
                                         (True, [0.0, 0.0, 0.0], [True, True, False])):

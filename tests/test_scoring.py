@@ -1,6 +1,7 @@
 """Every metric of `pipeline.harness.scoring` on hand-made numbers (the arithmetic is in the
 comments), plus the edge cases: ties, K = 1, degenerate KDEs, positions on pixel boundaries and
-off the mask, windows that share no frames, bad shapes."""
+off the mask, windows that share no frames, bad shapes; and S-GAN's sequences of a small S-GAN
+file, from our windows against S-GAN's loader rule stated again here."""
 
 import json
 import math
@@ -10,12 +11,16 @@ import pytest
 from scipy import linalg
 from scipy.stats import gaussian_kde
 
+from pipeline.config import ShortTermParams
+from pipeline.data.short_term import read_rows, sgan_window_rows
 from pipeline.harness import scoring
 from pipeline.harness.metrics import window_errors
-from pipeline.harness.scoring import (ALLOWED, FORBIDDEN, OUTSIDE, aggregate, best_endpoint_ade,
-                                      class_values, collisions, forbidden_share, kde_log_pdf,
-                                      kde_nll, mask_pixels, min_ade_fde, miss, per_scene_means,
-                                      scene_compliance, trajectory_scores)
+from pipeline.harness.scoring import (ALLOWED, FORBIDDEN, OUTSIDE, ade_sgan_sequence, aggregate,
+                                      best_endpoint_ade, class_values, collisions,
+                                      fde_sgan_sequence, forbidden_share, kde_log_pdf, kde_nll,
+                                      mask_pixels, min_ade_fde, miss, per_scene_means,
+                                      scene_compliance, sequence_joint_min, sgan_sequence_scores,
+                                      sgan_sequences, trajectory_scores)
 
 # The 3-4-5 example of tests/test_metrics.py. Window 0: sample 0 errors (0, 4) -> ADE 2, FDE 4;
 # sample 1 errors (3, 3) -> ADE 3, FDE 3. Window 1: sample 0 errors (5, 10) -> ADE 7.5, FDE 10;
@@ -110,6 +115,141 @@ def test_bad_shapes_are_named(metric):
         metric(PRED[:, 0], TRUTH)
     with pytest.raises(ValueError, match=r"ground truth.*\(2, 2, 2\).*got shape \(2, 3, 2\)"):
         metric(PRED, np.zeros((2, 3, 2)))
+
+
+# ---------------------------------------------------------------------------------------------
+# S-GAN's sequence protocol
+
+
+def test_sequence_joint_min_one_sample_for_the_whole_sequence():
+    # Windows 0, 1 in one sequence: per window the minima 1 and 2 (mean 1.5) come from samples 0
+    # and 1; summed over the sequence the samples give 1 + 3 = 4 and 4 + 2 = 6: min 4, / 2 = 2.
+    errors = np.array([[1.0, 4.0], [3.0, 2.0]])  # (N=2, K=2)
+    assert errors.min(axis=1).mean() == 1.5
+    assert sequence_joint_min(errors, [0, 0]) == 2.0
+    assert sequence_joint_min(errors, [0, 1]) == 1.5  # a sequence per window: the per-window mean
+
+
+def test_sequence_joint_min_two_sequences():
+    # Sequence a (windows 0, 2): samples 1 + 3 = 4, 4 + 2 = 6 -> 4. Sequence b (windows 1, 3):
+    # 5 + 2 = 7, 1 + 2 = 3 -> 3. (4 + 3) / 4 windows = 1.75; per window (1 + 1 + 2 + 2) / 4 = 1.5.
+    errors = np.array([[1.0, 4.0], [5.0, 1.0], [3.0, 2.0], [2.0, 2.0]])  # (N=4, K=2)
+    sequences = np.array(["a", "b", "a", "b"])
+    assert sequence_joint_min(errors, sequences) == 1.75
+    assert errors.min(axis=1).mean() == 1.5
+    order = [3, 0, 2, 1]  # the windows' order does not matter
+    assert sequence_joint_min(errors[order], sequences[order]) == 1.75
+
+
+def test_with_one_sample_every_protocol_agrees():
+    # K = 1: (2 + 7.5) / 2 = 4.75 whatever the sequences, as min-ADE and best-endpoint ADE.
+    pred = PRED[:, :1]
+    for sequences in ([0, 0], [0, 1]):
+        assert ade_sgan_sequence(pred, TRUTH, sequences) == 4.75
+        assert fde_sgan_sequence(pred, TRUTH, sequences) == 7.0  # (4 + 10) / 2
+    assert min_ade_fde(pred, TRUTH)["ade"].mean() == 4.75
+    assert best_endpoint_ade(pred, TRUTH).mean() == 4.75
+    assert sequence_joint_min([[1.0], [3.0], [5.0], [2.0]], [0, 1, 0, 2]) == 2.75  # 11 / 4
+
+
+def test_ade_and_fde_of_sgan_sequences_on_the_3_4_5_example():
+    # Per sample: window 0 ADE (2, 3), FDE (4, 3); window 1 ADE (7.5, 0), FDE (10, 0).
+    # One sequence: ADE sums (9.5, 3) -> 3 / 2 = 1.5 (per window: 1); FDE sums (14, 3) -> 1.5.
+    assert ade_sgan_sequence(PRED, TRUTH, [0, 0]) == 1.5
+    assert fde_sgan_sequence(PRED, TRUTH, [0, 0]) == 1.5
+    # A sequence per window: ADE (2 + 0) / 2 = 1 from sample 0 of window 0, FDE (3 + 0) / 2 = 1.5
+    # from its sample 1: each is minimised on its own (the joint FDE, 2, is not it).
+    assert ade_sgan_sequence(PRED, TRUTH, [0, 1]) == 1.0
+    assert fde_sgan_sequence(PRED, TRUTH, [0, 1]) == 1.5
+    assert min_ade_fde(PRED, TRUTH)["fde_joint"].mean() == 2.0
+    # Goals: window 0 (0, 5), window 1 (5, 5); one sequence: sums (5, 10) -> 5 / 2.
+    goals = np.array([[[2.0, 0.0], [5.0, 4.0]], [[3.0, 4.0], [9.0, 4.0]]])
+    assert fde_sgan_sequence(PRED, TRUTH, [0, 0], goals) == 2.5
+    with pytest.raises(ValueError, match=r"sequences must be \(2,\), got shape \(3,\)"):
+        ade_sgan_sequence(PRED, TRUTH, [0, 0, 0])
+
+
+def test_sgan_sequence_scores_over_all_windows_and_per_scene():
+    # Scene a: windows 0, 1 of the 3-4-5 example in one sequence (ADE 1.5, FDE 1.5 as above);
+    # scene b: window 0 again, alone (ADE 2, FDE 3). All: ADE (3 + 2) / 3, FDE (3 + 3) / 3.
+    pred, truth = PRED[[0, 1, 0]], TRUTH[[0, 1, 0]]
+    got = sgan_sequence_scores(pred, truth, [0, 0, 1], ["a", "a", "b"])
+    assert got == {"all": {"ade_sgan_sequence": 5 / 3, "fde_sgan_sequence": 2.0},
+                   "per_scene": {"a": {"ade_sgan_sequence": 1.5, "fde_sgan_sequence": 1.5},
+                                 "b": {"ade_sgan_sequence": 2.0, "fde_sgan_sequence": 3.0}}}
+    with pytest.raises(ValueError, match="a sequence spans two scenes"):
+        sgan_sequence_scores(pred, truth, [0, 0, 0], ["a", "a", "b"])
+
+
+def test_sgan_sequences_key_scene_and_first_frame():
+    # Sorted keys (a, 10), (a, 20), (b, 0), (b, 10) are sequences 0 .. 3.
+    got = sgan_sequences(["b", "a", "b", "a", "b"], np.array([10, 10, 10, 20, 0]))
+    np.testing.assert_array_equal(got, [3, 0, 3, 1, 2])
+    with pytest.raises(ValueError, match="first_frame must be integers"):
+        sgan_sequences(["a"], np.array([1.5]))
+
+
+SEQ_LEN = 20  # S-GAN's obs_len 8 + pred_len 12
+# (pedestrian, first frame, last frame) of two S-GAN files, frames 10 apart, 0 .. 290 (30 frames).
+# students001: ped 1 throughout; ped 2 the first 20 frames; ped 5 21 frames from 20; ped 3 from 50
+# to the end; ped 4 16 frames, never a whole run. Runs from 10 and 40 hold ped 1 alone (dropped).
+# students003: the same frame numbers, peds 1 and 2 only: sequences of its own.
+SGAN_FILES = {"students001": [(1, 0, 290), (2, 0, 190), (3, 50, 290), (4, 100, 250),
+                              (5, 20, 220)],
+              "students003": [(1, 0, 290), (2, 0, 190)]}
+
+
+def write_sgan_file(path, peds) -> None:
+    """S-GAN's format: `frame ped x y`, tab-separated, rows by frame, then pedestrian."""
+    rows = sorted((frame, ped) for ped, first, last in peds for frame in range(first, last + 1, 10))
+    path.write_text("".join(f"{frame}.0\t{ped}.0\t{0.1 * ped:.2f}\t{frame / 100:.2f}\n"
+                            for frame, ped in rows))
+
+
+def sgan_loader_sequences(rows: np.ndarray) -> list[tuple[float, frozenset]]:
+    """S-GAN's loader rule, said again: for every start among the file's sorted distinct frames
+    with 20 frames from there, the pedestrians present in all 20 form a sequence, kept when there
+    is more than one (min_ped = 1). (start frame, pedestrians) of each kept sequence."""
+    frames = sorted(set(rows[:, 0].tolist()))
+    present = {}
+    for frame, ped in rows[:, :2].tolist():
+        present.setdefault(ped, set()).add(frame)
+    out = []
+    for start in range(len(frames) - SEQ_LEN + 1):
+        run = frames[start:start + SEQ_LEN]
+        peds = frozenset(p for p, seen in present.items() if all(f in seen for f in run))
+        if len(peds) > 1:
+            out.append((run[0], peds))
+    return out
+
+
+def test_sgan_sequences_of_our_windows_are_sgan_loaders(tmp_path):
+    params = ShortTermParams()
+    assert params.window_length == SEQ_LEN and params.ethucy_min_agents == 2  # "> 1"
+    expected, scene_id, first_frame, peds = set(), [], [], []
+    for name, file_peds in SGAN_FILES.items():
+        path = tmp_path / f"{name}.txt"
+        write_sgan_file(path, file_peds)
+        rows = read_rows(path, "frame ped x y")
+        expected |= {(name, start, members) for start, members in sgan_loader_sequences(rows)}
+        windows = sgan_window_rows(rows, params.window_length, params.ethucy_min_agents, path)
+        scene_id += [name] * len(windows)
+        first_frame.append(rows[windows[:, 0], 0].astype(np.int64))
+        peds.append(rows[windows[:, 0], 1])
+    first_frame, peds = np.concatenate(first_frame), np.concatenate(peds)
+    sequences = sgan_sequences(np.array(scene_id), first_frame)
+    got = set()
+    for s in np.unique(sequences):
+        at = np.flatnonzero(sequences == s)
+        (scene,), (start,) = {scene_id[i] for i in at}, set(first_frame[at].tolist())
+        got.add((scene, start, frozenset(peds[at].tolist())))
+    assert got == expected
+    assert len(sequences) == sum(len(members) for _, _, members in expected)  # no window twice
+    # Spot checks: students001 starts 0 .. 100 but 10 and 40 (ped 1 alone); 0 holds peds 1, 2.
+    starts = sorted(start for scene, start, _ in expected if scene == "students001")
+    assert starts == [0, 20, 30, 50, 60, 70, 80, 90, 100]
+    assert ("students001", 0, frozenset({1.0, 2.0})) in expected
+    assert {s for scene, s, _ in expected if scene == "students003"} == {0}
 
 
 # ---------------------------------------------------------------------------------------------

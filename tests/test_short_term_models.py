@@ -21,6 +21,7 @@ import torch
 import yaml
 
 from pipeline.report import page as report
+from pipeline.report.provenance import load_paper_values
 from pipeline.data.homography import metres_to_pixels
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
@@ -150,7 +151,8 @@ def tiny_params() -> dict:
     both = lambda section: {"cpu": section, "paper": section}  # noqa: E731
     return {"profile": "cpu", "short_term": real["short_term"], "runtime": real["runtime"],
             "train_baseline": {"seed": 0, "threads": 1}, "ynet": both(ynet),
-            "short_term_models": both(short), "sgan": both(sgan), "pecnet": both(pecnet)}
+            "short_term_models": both(short), "sgan": both(sgan), "pecnet": both(pecnet),
+            "short_term_baselines": real["short_term_baselines"]}
 
 
 @pytest.fixture(scope="module")
@@ -572,7 +574,7 @@ def test_merged_files_have_the_report_layout(project):
 
 
 def test_the_report_shows_the_merged_numbers_as_measured(project):
-    paper = yaml.safe_load((REPO / "pipeline" / "report" / "paper_values.yaml").read_text())
+    paper = load_paper_values(REPO / "pipeline" / "report" / "paper_values.yaml")
     store = report.load_metrics(project / "metrics")
     bands = report.ReportParams(close=0.05, far=0.2)
     table1 = report.table_sdd_short(paper["sdd_short"], store, bands)

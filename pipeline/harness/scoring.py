@@ -11,6 +11,14 @@ benchmark's unit (original image pixels for SDD, metres for ETH/UCY); optional s
 - `best_endpoint_ade`: ADE of the sample whose endpoint is closest to the true one (PECNet's
   protocol: its test code picks the best destination first, then scores that sample's path).
 - `miss`: whether the best endpoint is further than a stated threshold (the miss rate's windows).
+- `ade_sgan_sequence` / `fde_sgan_sequence`: S-GAN's protocol (its `evaluate_model.py`, the
+  source of the paper's ETH/UCY S-GAN row): each sample's error is summed over every window of a
+  sequence (`sgan_sequences`: one scene and start frame, as S-GAN's loader groups pedestrians),
+  the minimum of those sums over the K samples is taken per sequence (one sample index for the
+  whole sequence), and the minima are summed over sequences and divided by the window count. One
+  number per set of windows, not a mean of per-window values: `sgan_sequence_scores` gives it
+  over all windows and per scene (a sequence never spans two scenes). ADE and FDE are minimised
+  separately. At least the paper's per-window minima; equal to them for K = 1.
 - `kde_nll`: negative log-likelihood of the ground truth under a Gaussian KDE of the K samples, per
   step, clipped as Trajectron++ and TrajNet++ do.
 - `scene_compliance` / `forbidden_share`: the share of positions on classes a pedestrian cannot
@@ -109,6 +117,92 @@ def miss(pred: Any, truth: Any, threshold: Any, goals: Any | None = None) -> np.
     if not np.isfinite(limit).all() or (limit < 0).any():
         raise ValueError(f"threshold must be a finite distance >= 0, got {threshold}")
     return endpoint_errors(pred, truth, goals).min(axis=1) > limit
+
+
+# ---------------------------------------------------------------------------------------------
+# S-GAN's sequence protocol
+
+ADE_SGAN_SEQUENCE, FDE_SGAN_SEQUENCE = "ade_sgan_sequence", "fde_sgan_sequence"
+
+
+def sgan_sequences(scene_id: Any, first_frame: Any) -> np.ndarray:
+    """(N,) int64 S-GAN sequence of each window, from its scene_id (N,) and the raw frame of its
+    first step first_frame (N,): windows with equal (scene_id, first_frame) share one, numbered
+    in (scene, frame) order.
+
+    S-GAN's loader makes one sequence per file and start frame (the pedestrians present in all of
+    the next 20 frames), and `pipeline.data.short_term` cuts the ETH/UCY windows as it does, one
+    scene_id per S-GAN file, so this key gives S-GAN's sequences back. For other windows (SDD's
+    1 FPS tracks) it groups those that start together: S-GAN's rule applied to those windows."""
+    scene_id = np.asarray(scene_id)
+    first_frame = check_per_window(first_frame, len(scene_id), "first_frame")
+    check_per_window(scene_id, len(first_frame), "scene_id")
+    if first_frame.dtype.kind not in "iu":
+        raise ValueError(f"first_frame must be integers, got {first_frame.dtype}")
+    scene_code = np.unique(scene_id, return_inverse=True)[1].reshape(-1)  # (N,)
+    keys = np.stack([scene_code, first_frame.astype(np.int64)], axis=1)  # (N, 2)
+    if not len(keys):
+        return np.zeros(0, dtype=np.int64)
+    return np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1).astype(np.int64)
+
+
+def sequence_joint_min(errors: Any, sequences: Any) -> float:
+    """S-GAN's best of K (its `evaluate_helper`): errors (N, K) of each window and sample, summed
+    over the windows of each sequence (sequences (N,), any labels), the minimum over k of those
+    sums per sequence, summed over sequences and divided by N. Every pedestrian of a sequence is
+    scored with the same sample, so this is at least the mean of the per-window minima, and equal
+    to it where one sample is best for every window of each sequence (always for K = 1)."""
+    errors = as_numpy(errors)
+    if errors.ndim != 2 or errors.shape[0] < 1 or errors.shape[1] < 1:
+        raise ValueError(f"errors must be (N, K) with N, K >= 1, got shape {errors.shape}")
+    sequences = check_per_window(sequences, len(errors), "sequences")
+    code = np.unique(sequences, return_inverse=True)[1].reshape(-1)  # (N,) 0 .. S - 1
+    sums = np.zeros((code.max() + 1, errors.shape[1]))  # (S, K) each sequence's error per sample
+    np.add.at(sums, code, errors)
+    return float(sums.min(axis=1).sum() / len(errors))
+
+
+def ade_sgan_sequence(pred: Any, truth: Any, sequences: Any) -> float:
+    """S-GAN's ADE: `sequence_joint_min` of each window's and sample's ADE (N, K) over
+    `sequences` (N,) (`sgan_sequences`); S-GAN's sum of displacements over every predicted step
+    of the sequence, divided by N * T, is the same number."""
+    pred, truth = check_paths(pred, truth)
+    return sequence_joint_min(step_errors(pred, truth).mean(axis=-1), sequences)
+
+
+def fde_sgan_sequence(pred: Any, truth: Any, sequences: Any, goals: Any | None = None) -> float:
+    """S-GAN's FDE: `sequence_joint_min` of each window's and sample's final displacement (N, K)
+    over `sequences` (N,), minimised apart from the ADE (it may pick another sample); on `goals`
+    (N, K, 2) where given, as `min_ade_fde`'s FDE."""
+    pred, truth = check_paths(pred, truth)
+    return sequence_joint_min(endpoint_errors(pred, truth, goals), sequences)
+
+
+def sgan_sequence_scores(pred: Any, truth: Any, sequences: Any, scenes: Any,
+                         goals: Any | None = None) -> dict[str, Any]:
+    """`ade_sgan_sequence` and `fde_sgan_sequence` over all windows and per scene (the same
+    formula over the scene's windows): {"all": {name: value}, "per_scene": {scene: {name: value}}},
+    scenes in sorted order. Each is a number of its set of windows, not a mean of per-window
+    values; as a sequence never spans two scenes (a ValueError otherwise), the value over all
+    windows is the per-scene values' mean weighted by the scenes' window counts."""
+    pred, truth = check_paths(pred, truth)
+    sequences = check_per_window(sequences, len(pred), "sequences")
+    scenes = check_per_window(scenes, len(pred), "scenes")
+    scene_code = np.unique(scenes, return_inverse=True)[1].reshape(-1)  # (N,)
+    sequence_code = np.unique(sequences, return_inverse=True)[1].reshape(-1)  # (N,)
+    if len(np.unique(np.stack([sequence_code, scene_code], axis=1), axis=0)) \
+            != len(np.unique(sequence_code)):
+        raise ValueError("a sequence spans two scenes: sequences must lie within one scene")
+    goals = None if goals is None else as_numpy(goals)
+
+    def scores(rows: np.ndarray | slice) -> dict[str, float]:
+        goals_rows = None if goals is None else goals[rows]
+        return {ADE_SGAN_SEQUENCE: ade_sgan_sequence(pred[rows], truth[rows], sequences[rows]),
+                FDE_SGAN_SEQUENCE: fde_sgan_sequence(pred[rows], truth[rows], sequences[rows],
+                                                     goals_rows)}
+
+    return {"all": scores(slice(None)),
+            "per_scene": {str(scene): scores(scenes == scene) for scene in np.unique(scenes)}}
 
 
 # ---------------------------------------------------------------------------------------------

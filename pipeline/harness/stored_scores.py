@@ -12,6 +12,11 @@ mean and (population) std over the rounds, and per scene:
 - `ade`, `fde` (best of K, independent minima: the paper's numbers, FDE on Y-net's sampled goals)
   and `ade_joint`, `fde_joint` (both of the sample with the lowest ADE), in the benchmark's unit;
 - `ade_best_endpoint`: ADE of the sample whose endpoint is closest to the true one (PECNet);
+- `ade_sgan_sequence`, `fde_sgan_sequence`: S-GAN's protocol (`scoring.sequence_joint_min`): one
+  best sample per sequence, the windows of a scene that start at the same frame
+  (`scoring.sgan_sequences`; for ETH/UCY exactly S-GAN's sequences, for SDD and inD S-GAN's rule
+  applied to these windows). A number of a set of windows, not a mean over them: per round over
+  all windows, per scene over the scene's windows;
 - `miss_rate`: share of windows whose best endpoint is further than `miss_threshold_m` metres
   (converted per scene with its metres per unit: SDD's per-video scales, inD's per recording;
   1 where the unit is metres);
@@ -62,7 +67,9 @@ UNIT = "px"  # the long-term SDD benchmark's unit: original image pixels
 PATH_METRICS = ("ade", "fde", "ade_joint", "fde_joint", "ade_best_endpoint", "miss_rate",
                 "kde_nll", "kde_degenerate_share")  # from the paths alone
 SCENE_METRICS = ("off_limits_share", "collision_rate")  # from the paths in their scenes
-METRICS = PATH_METRICS + SCENE_METRICS  # every model metric, in the order a record lists them
+WINDOW_METRICS = PATH_METRICS + SCENE_METRICS  # one value per window, averaged
+SEQUENCE_METRICS = (scoring.ADE_SGAN_SEQUENCE, scoring.FDE_SGAN_SEQUENCE)  # one per set of windows
+METRICS = WINDOW_METRICS + SEQUENCE_METRICS  # every model metric, in the order a record lists them
 TRUTH_METRICS = ("off_limits_share", "collision_rate", "copresent_share")  # of the ground truth
 
 
@@ -78,6 +85,7 @@ class WindowTruth:
     window_ids: np.ndarray  # (N,) int64, ascending
     future: np.ndarray  # (N, T, 2) float64, in the benchmark's unit (the truth columns)
     frames: np.ndarray  # (N, T) int64, raw frame of each future step
+    first_frame: np.ndarray  # (N,) int64, raw frame of the first observed step
     scenes: np.ndarray  # (N,) str, the table's scene_id ('<scene>_<video>' for SDD)
     tracks: np.ndarray  # (N,) int64, the raw track ids (one agent per scene and track)
     t_f: int  # the table's t_f (seconds; the short-term tables hold n_f, the future steps)
@@ -93,7 +101,7 @@ class WindowTruth:
             raise IntermediateError(f"{source}: {len(missing)} of {len(window_ids)} window id(s) "
                                     f"are not in {self.path}, e.g. {missing[:5].tolist()}")
         return WindowTruth(self.path, self.window_ids[at], self.future[at], self.frames[at],
-                           self.scenes[at], self.tracks[at], self.t_f)
+                           self.first_frame[at], self.scenes[at], self.tracks[at], self.t_f)
 
 
 def read_window_truth(path: Path, n_past: int, columns: Sequence[str] = ("x", "y"),
@@ -130,8 +138,8 @@ def read_window_truth(path: Path, n_past: int, columns: Sequence[str] = ("x", "y
     frames = table["frame"].to_numpy(np.int64).reshape(n, length)  # (N, L)
     first = table.iloc[::length]  # rows are sorted by window, step: each window's first step
     return WindowTruth(path, sizes.index.to_numpy(np.int64), xy[:, n_past:], frames[:, n_past:],
-                       first["scene_id"].to_numpy(str), first["track_id"].to_numpy(np.int64),
-                       int(horizons[0]))
+                       frames[:, 0], first["scene_id"].to_numpy(str),
+                       first["track_id"].to_numpy(np.int64), int(horizons[0]))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -407,17 +415,35 @@ def over_rounds(values: Sequence[float | None]) -> dict[str, float] | None:
     return {"mean": float(held.mean()), "std": float(held.std())} if len(held) else None
 
 
-def summarise_rounds(rounds: list[dict[str, Any]], scenes: np.ndarray) -> dict[str, Any]:
-    """`scoring.aggregate` of each round's per-window metrics, summarised over the rounds:
+def sequence_round(arrays: PredictionArrays, truth: WindowTruth) -> dict[str, Any]:
+    """One round's `SEQUENCE_METRICS` (`scoring.sgan_sequence_scores`): {"all": {name: value},
+    "per_scene": {scene: {name: value}}}, sequences by scene and first frame."""
+    sequences = scoring.sgan_sequences(truth.scenes, truth.first_frame)  # (N,)
+    return scoring.sgan_sequence_scores(arrays.samples, truth.future, sequences, truth.scenes,
+                                        goals=arrays.goals)
+
+
+def summarise_rounds(rounds: list[dict[str, Any]], scenes: np.ndarray,
+                     sequence_rounds: list[dict[str, Any]]) -> dict[str, Any]:
+    """`scoring.aggregate` of each round's per-window metrics (`WINDOW_METRICS`), with each
+    round's `sequence_round` (`SEQUENCE_METRICS`), summarised over the rounds:
     {"metrics": {name: {mean, std, per_round}}, "per_scene": {scene: {"n_windows",
     "metrics": {name: {mean, std}}}}}."""
     means = [scoring.aggregate(r, scenes) for r in rounds]
-    metrics = {name: {**(over_rounds([m["window_mean"][name] for m in means]) or {}),
-                      "per_round": [m["window_mean"][name] for m in means]}
+    per_round = {name: [m["window_mean"][name] for m in means] for name in WINDOW_METRICS}
+    per_round.update({name: [s["all"][name] for s in sequence_rounds]
+                      for name in SEQUENCE_METRICS})
+    metrics = {name: {**(over_rounds(per_round[name]) or {}), "per_round": per_round[name]}
                for name in METRICS}
+
+    def scene_rounds(scene: str, name: str) -> list[float | None]:
+        if name in SEQUENCE_METRICS:
+            return [s["per_scene"][scene][name] for s in sequence_rounds]
+        return [m["per_scene"][scene][name] for m in means]
+
     per_scene = {scene: {"n_windows": entry["n_windows"],
-                         "metrics": {name: over_rounds([m["per_scene"][scene][name]
-                                                        for m in means]) for name in METRICS}}
+                         "metrics": {name: over_rounds(scene_rounds(scene, name))
+                                     for name in METRICS}}
                  for scene, entry in means[0]["per_scene"].items()}
     return {"metrics": metrics, "per_scene": per_scene}
 
@@ -468,16 +494,17 @@ def score_file(path: Path, benchmark: Benchmark, params: ScorePredictionsParams
                                 f"have {windows.future.shape[1]} future steps")
     inputs = SceneInputs(windows, benchmark.to_metres(windows.scenes, path), benchmark.masks,
                          benchmark.same_start_collisions)
-    rounds, nll_steps, hits = [], [], None
+    rounds, sequence_rounds, nll_steps, hits = [], [], [], None
     for arrays in by_round.values():
         per_window, nll, hits = score_round(arrays, inputs, params)
         rounds.append(per_window)
+        sequence_rounds.append(sequence_round(arrays, windows))
         nll_steps.append(nll.mean(axis=0))  # (T,) mean over windows
     steps = np.stack(nll_steps)  # (R, T)
     truth_values = {"off_limits_share": off_limits_share(windows.future, inputs),
                     "collision_rate": hits.truth, "copresent_share": hits.copresent}
     truth_means = scoring.aggregate(truth_values, windows.scenes)
-    summary = summarise_rounds(rounds, windows.scenes)
+    summary = summarise_rounds(rounds, windows.scenes, sequence_rounds)
     for scene, entry in summary["per_scene"].items():
         entry["ground_truth"] = {name: truth_means["per_scene"][scene][name]
                                  for name in TRUTH_METRICS}

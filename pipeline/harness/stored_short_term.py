@@ -20,7 +20,9 @@ files (stage `score_short_term_predictions`, `metrics/beyond/short_term.json`).
   frames with a window in up to 2 n_f - 1 overlapping windows (zara1: 81 partner windows of 7
   other pedestrians on average): collisions are counted only between windows that start at the
   same frame, one sequence (`Benchmark.same_start_collisions`). TrajNet SDD's windows meet each
-  neighbour once and keep the long-term rule (any shared raw frame).
+  neighbour once and keep the long-term rule (any shared raw frame). The same sequences (scene_id
+  = S-GAN's file, first frame = its start frame) give S-GAN's own ADE / FDE
+  (`ade_sgan_sequence`, `fde_sgan_sequence`; the paper's ETH/UCY S-GAN row is scored so).
 
 Window ids are those of the dataset's table; an id of another split is "not in" the benchmark.
 """

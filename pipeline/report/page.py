@@ -4,10 +4,13 @@ Reads every metrics file that exists (each one defensively: a missing or malform
 explained absence, never a blank or a made-up number), the paper's values
 (`pipeline/report/paper_values.yaml`), the params and the data manifests, and writes
 
-- `reports/index.html` (jinja2, no scripts, no network): Tables 1-4 cell by cell (paper, ours as
+- `reports/index.html` (jinja2, no scripts, no network): the paper's claims in words, each with
+  ours and a verdict (`pipeline.report.claims`); Tables 1-4 cell by cell (paper, ours as
   mean and spread over evaluation rounds, relative difference coloured by size; every model
   registered in params.yaml `models`, README "Your model here", as a Table 3 column of its own,
-  ours only: the paper has no value for it), the horizon and
+  ours only: the paper has no value for it; each paper cell marked with who measured it and, where
+  its source took the best of K otherwise than our headline, ours under that protocol beside it and
+  compared, and why a cell differs: `pipeline.report.provenance`), the horizon and
   K_a figures, the training-seed spread (baselines and Y-net), the qualitative figure, "Beyond the paper's
   tables" (`pipeline.report.beyond`: the metrics of stages `score_predictions` and
   `score_short_term_predictions`: long-term SDD, the short-term benchmarks, inD), the data audit and
@@ -62,7 +65,7 @@ import subprocess
 import sys
 from collections import Counter
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -73,8 +76,14 @@ import yaml
 from pipeline.config import ReportParams
 from pipeline.models import ModelEntry
 from pipeline.report.beyond import beyond_section
+from pipeline.report.claims import claims_section
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)
+from pipeline.report.provenance import (PROTOCOL_KEYS, PROTOCOL_LABELS, PROTOCOLS,
+                                        SEED_SPREAD_FILE, CellSource, SourceNote, Why,
+                                        difference_lines, glance_counts, load_paper_values,
+                                        long_term_score, mean_of, seed_range, short_term_score,
+                                        source_notes, under_protocol, why_differs, with_provenance)
 from pipeline.io import atomic_dir, write_text
 from pipeline.data.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
@@ -109,12 +118,20 @@ def model_colours(registered: Mapping[str, ModelEntry]) -> dict[str, str]:
 
 @dataclass(frozen=True)
 class Cell:
-    """One table cell: the paper's value, ours (or why not), their relative difference."""
+    """One table cell: the paper's value, ours (or why not), their relative difference. Where the
+    paper's number was taken under another best-of-K protocol than our headline, ours under that
+    protocol too, and the difference and colour are that one's."""
     paper: float | None
     ours: Measured | Absent | None  # None: a model this pipeline does not train
-    diff: float | None = None
+    diff: float | None = None  # the compared difference: under the cell's protocol where scored
     band: str = ""  # close | mid | far, for measured cells
     joint: Measured | None = None  # ADE/FDE both from the best-ADE sample, where recorded
+    source: CellSource | None = None  # who measured the paper's number, and how
+    own: Measured | Absent | None = None  # ours under the cell's protocol; None: the headline's
+    headline_diff: float | None = None  # ours (headline protocol) against the paper
+    why: Why | None = None  # for a compared cell: a match, or the cause of the difference
+    name: str = ""  # "PECNet* (K = 20) ADE": how the lists under a table name the cell
+    mark: str = ""  # its source's footnote mark: q1, q2 (quoted), a1 (the Y-net authors')
 
     @property
     def kind(self) -> str:
@@ -151,6 +168,9 @@ class Table:
     columns: tuple[Column, ...]
     rows: tuple[Row, ...]
     paper_decimals: int = 2  # as the paper prints them
+    sources: tuple[SourceNote, ...] = ()  # the footnotes of the cells' marks
+    protocols: tuple[str, ...] = ()  # the protocols of its paper cells, for the caption
+    differences: tuple[tuple[str, str, tuple[str, ...]], ...] = ()  # (cause, detail, cells)
 
     def cells(self) -> list[Cell]:
         return [cell for row in self.rows for cell in row.cells]
@@ -189,7 +209,38 @@ def compare(paper: float | None, ours: Measured | Absent | None, params: ReportP
     if not isinstance(ours, Measured) or ours.mismatch:  # nothing, or not comparable
         return Cell(paper, ours)
     diff = relative_difference(ours.mean, paper)
-    return Cell(paper, ours, diff, band(diff, params), joint if isinstance(joint, Measured) else None)
+    return Cell(paper, ours, diff, band(diff, params), joint if isinstance(joint, Measured) else None,
+                headline_diff=diff)
+
+
+def paper_cell(paper: float | None, ours: Measured | Absent | None, params: ReportParams,
+               source: CellSource | None, name: str, own: Measured | Absent | None = None,
+               joint: Measured | Absent | None = None,
+               seeds: tuple[float, float, int] | None = None) -> Cell:
+    """`compare` on our headline, then under the cell's own protocol (`own`: the difference and
+    colour follow it where it was scored) and whether the cell matches or why not (`seeds`: our
+    range over training seeds, where trained)."""
+    cell = replace(compare(paper, ours, params, joint), source=source, name=name)
+    if cell.kind != "measured":
+        return cell
+    own_diff = relative_difference(own.mean, paper) if isinstance(own, Measured) else None
+    diff = cell.diff if own_diff is None else own_diff
+    why = why_differs(paper, cell.diff, own_diff, params.far, source, seeds)
+    return replace(cell, own=own, diff=diff, band=band(diff, params), why=why)
+
+
+def annotated(table: Table) -> Table:
+    """`table` with its cells' source marks, the footnotes, its protocols and the list of why
+    cells differ."""
+    labelled = [(column.group if column.label in ("ADE", "FDE") else column.label, cell)
+                for row in table.rows for column, cell in zip(table.columns, row.cells)]
+    notes, marks = source_notes([(label, cell.source) for label, cell in labelled if cell.source])
+    rows = tuple(Row(row.label, tuple(replace(cell, mark=marks.get(cell.source, ""))
+                                      for cell in row.cells)) for row in table.rows)
+    protocols = tuple(p for p in PROTOCOLS if any(cell.source and cell.source.protocol == p
+                                                  for _, cell in labelled))
+    differences = difference_lines([(cell.name, cell.why) for _, cell in labelled if cell.why])
+    return replace(table, rows=rows, sources=notes, protocols=protocols, differences=differences)
 
 
 def ours_if_trained(model: str, find) -> Measured | Absent | None:
@@ -214,25 +265,34 @@ def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
             path = ("models", c["model"], f"k{c['k']}", metric)
             ours = ours_if_trained(c["model"], lambda p=path: lookup(store, "short_term/sdd.json", p,
                                                                      expect=expected(profile)))
-            cells.append(compare(c[metric], ours, params))
+            source = c["cells"][metric]
+            own = under_protocol(source.protocol, metric, lambda key, c=c: short_term_score(
+                store, "sdd", c["model"], key, c["k"]))
+            cells.append(paper_cell(c[metric], ours, params, source,
+                                    f"{c['label']} (K = {c['k']}) {metric.upper()}", own))
         rows.append(Row(metric.upper(), tuple(cells)))
     return Table("sdd_short", spec["number"], spec["title"],
-                 "t_p = 3.2 s, t_f = 4.8 s (TrajNet split). Ours: metrics/short_term/sdd.json.",
+                 "t_p = 3.2 s, t_f = 4.8 s (TrajNet split). Ours: metrics/short_term/sdd.json; "
+                 "under a cell's own protocol: metrics/beyond/short_term.json (the stored K = 20 "
+                 "predictions).",
                  spec["unit"], 2, tuple(Column(f"K = {c['k']}", c["label"]) for c in cols), tuple(rows))
 
 
-def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportParams) -> Cell:
-    """The AVG row: mean of our five scene means, only when all five were measured."""
+def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportParams,
+                 source: CellSource | None = None, name: str = "") -> Cell:
+    """The AVG row: mean of our five scene means, only when all five were measured (and so under
+    the cell's own protocol)."""
     if any(cell.ours is None for cell in scene_cells):
-        return Cell(paper, None)
+        return Cell(paper, None, source=source, name=name)
     absent = [cell.ours for cell in scene_cells if isinstance(cell.ours, Absent)]
     if absent:
         return Cell(paper, Absent(f"average needs all {len(scene_cells)} scenes; {absent[0].reason}",
-                                  absent[0].kind))
+                                  absent[0].kind), source=source, name=name)
     means = [cell.ours.mean for cell in scene_cells]
     ours = Measured(float(np.mean(means)), None, None, "mean of the scene means",
                     f"mean of {len(means)} scenes")
-    return compare(paper, ours, params)
+    own = mean_of([cell.own for cell in scene_cells], "mean of the scenes' values")
+    return paper_cell(paper, ours, params, source, name, own)
 
 
 def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
@@ -246,15 +306,22 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
                 rel = f"short_term/ethucy_{scene}.json"
                 ours = ours_if_trained(m["model"], lambda r=rel, mo=m["model"], me=metric:
                                        lookup(store, r, ("models", mo, me), expect=expected(profile)))
-                per_scene[scene].append(compare(m[metric][scene], ours, params))
+                source = m["cells"][metric][scene]
+                own = under_protocol(source.protocol, metric, lambda key, s=scene, mo=m["model"]:
+                                     short_term_score(store, s, mo, key, 20))
+                per_scene[scene].append(paper_cell(
+                    m[metric][scene], ours, params, source,
+                    f"{m['label']} {metric.upper()} {spec['scene_labels'][scene]}", own))
     rows = [Row(spec["scene_labels"][s], tuple(cells)) for s, cells in per_scene.items()]
-    avg_paper = [m[metric].get("avg") for m in spec["models"] for metric in METRICS]
-    avg = [average_cell(p, [per_scene[s][i] for s in spec["scenes"]], params)
-           for i, p in enumerate(avg_paper)]
+    in_column_order = [(m, metric) for m in spec["models"] for metric in METRICS]
+    avg = [average_cell(m[metric].get("avg"), [per_scene[s][i] for s in spec["scenes"]], params,
+                        m["cells"][metric]["avg"], f"{m['label']} {metric.upper()} AVG")
+           for i, (m, metric) in enumerate(in_column_order)]
     rows.append(Row("AVG", tuple(avg)))
     return Table("eth_ucy", spec["number"], spec["title"],
                  "K = 20, leave one scene out. Ours: metrics/short_term/ethucy_<scene>.json; "
-                 "our AVG is the mean of our five scene means.",
+                 "under a cell's own protocol: metrics/beyond/short_term.json (the stored "
+                 "predictions); our AVG is the mean of our five scene means.",
                  spec["unit"], 3, tuple(columns), tuple(rows))
 
 
@@ -307,15 +374,25 @@ def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams,
             def find(c=c):
                 return find_long_term(store, c, metric, profile)
             ours = find() if c.get("registered") else ours_if_trained(c["model"], find)
-            cells.append(compare(c[metric], ours, params,
-                                 find_long_term_joint(store, c, metric, profile)))
+            source = (c.get("cells") or {}).get(metric)  # a registered model has no paper cell
+            own = under_protocol(source.protocol, metric, lambda key, c=c: long_term_score(
+                store, c["dataset"], c["model"], c["k_a"], key, LONG_TERM_TF)) if source else None
+            seeds = (seed_range(store, c["model"], LONG_TERM_TF, metric)
+                     if (c["dataset"], c["k_a"]) == ("sdd", 1) else None)
+            cells.append(paper_cell(
+                c[metric], ours, params, source,
+                f"{DATASETS[c['dataset']]} {c['label']} (K_a = {c['k_a']}) {metric.upper()}", own,
+                find_long_term_joint(store, c, metric, profile), seeds))
         rows.append(Row(metric.upper(), tuple(cells)))
     columns = tuple(Column(DATASETS[c["dataset"]], c["label"], f"K_a = {c['k_a']}") for c in cols)
     registered = [c["label"] for c in cols if c.get("registered")]
     return Table("sdd_long", spec["number"], spec["title"],
                  "t_f = 30 s, t_p = 5 s, K_e = 20 (baselines K = 20). Ours: SDD Y-net from "
                  "metrics/ynet_eval.json (main; ka_grid for K_a > 1), SDD baselines from "
-                 "metrics/baselines/<model>_tf30.json, inD from metrics/ind_benchmark.json."
+                 "metrics/baselines/<model>_tf30.json, inD from metrics/ind_benchmark.json; under "
+                 "a cell's own protocol, where it is not the headline's: metrics/beyond/"
+                 "long_term.json and ind.json (the stored predictions, K_a = 1). Our spread over "
+                 "training seeds: metrics/baseline_seed_spread.json."
                  + (f" {', '.join(registered)}: registered in params.yaml `models` (README \"Your "
                     "model here\"), from metrics/baselines/<model>_tf30.json; the paper has no "
                     "value for them (\u2014)." if registered else ""),
@@ -335,7 +412,11 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams,
             ours = lookup(store, rel, ("ablation", name, metric), t_f=LONG_TERM_TF, expect=setting)
             joint = lookup(store, rel, ("ablation", name, f"{metric}_joint"), t_f=LONG_TERM_TF,
                            expect=setting)
-            cells.append(compare(c[metric], ours, params, joint))
+            seeds = (seed_range(store, "ynet", LONG_TERM_TF, metric)  # seeds: the main setting's
+                     if (c["dataset"], name) == ("sdd", "ttst_cws") else None)
+            cells.append(paper_cell(c[metric], ours, params, c["cells"][metric],
+                                    f"{DATASETS[c['dataset']]} {name} {metric.upper()}",
+                                    joint=joint, seeds=seeds))
         rows.append(Row(metric.upper(), tuple(cells)))
     tick = {True: "\u2713", False: "\u2717"}
     columns = tuple(Column(DATASETS[c["dataset"]], f"TTST {tick[c['ttst']]}  CWS {tick[c['cws']]}")
@@ -357,8 +438,10 @@ def build_tables(paper: Mapping, store: MetricsStore, params: ReportParams,
     file of another profile is shown as a mismatch, not compared); `registered`: the models of
     params.yaml `models`, each a column of Table 3 (`with_registered`). Table 4 is Y-net's own
     TTST / CWS ablation: no other model has those switches, so it has no column for them."""
+    paper = with_provenance(paper)
     specs = {**paper, "sdd_long": with_registered(paper["sdd_long"], registered or {})}
-    tables = [build(specs[key], store, params, profile) for key, build in TABLE_BUILDERS.items()]
+    tables = [annotated(build(specs[key], store, params, profile))
+              for key, build in TABLE_BUILDERS.items()]
     return sorted(tables, key=lambda t: t.number)
 
 
@@ -367,10 +450,12 @@ class TableSummary:
     table: Table
     counts: Mapping[str, int]  # close, mid, far, mismatch, absent, paper-only, ours-only
     reasons: tuple[str, ...]  # distinct reasons of the absent cells
+    verdicts: Mapping[str, int] = field(default_factory=dict)  # match, then per cause (`why`)
 
 
 def summarize(table: Table) -> TableSummary:
-    """What a reviewer needs first: how many of the table's numbers we reproduce, and gaps."""
+    """What a reviewer needs first: how many of the table's numbers we reproduce (by colour, and
+    by whether they match under the headline protocol or why not), and gaps."""
     counts = {key: 0 for key in ("close", "mid", "far", "mismatch", "absent", "paper-only",
                                  "ours-only")}
     reasons: list[str] = []
@@ -379,7 +464,8 @@ def summarize(table: Table) -> TableSummary:
         counts[key] = counts.get(key, 0) + 1
         if isinstance(cell.ours, Absent) and cell.ours.reason not in reasons:
             reasons.append(cell.ours.reason)
-    return TableSummary(table, counts, tuple(reasons))
+    verdicts = glance_counts([cell.why.verdict for cell in table.cells() if cell.why])
+    return TableSummary(table, counts, tuple(reasons), verdicts)
 
 
 def slug(*parts: str) -> str:
@@ -667,7 +753,6 @@ def plot_qualitative(examples: Iterable[Mapping[str, np.ndarray]], path: Path) -
 # Training-seed spread of the baselines and the main Y-net
 
 
-SEED_SPREAD_FILE = "baseline_seed_spread.json"
 
 
 @dataclass(frozen=True)
@@ -1223,7 +1308,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
     `final_figures_dir` is where those figures will be after the rename (for the <img> paths).
     """
     registered = registered or {}
-    paper = yaml.safe_load(inputs.paper.read_text())
+    paper = load_paper_values(inputs.paper)
     params = lock_params(lock)
     store = load_metrics(inputs.metrics, inputs.metrics.as_posix())
     tables = build_tables(paper, store, report_params, params.get("profile"), registered)
@@ -1236,7 +1321,10 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
     context = {
         "generated": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "bands": report_params,
+        "protocol_labels": PROTOCOL_LABELS, "protocol_lines": PROTOCOLS,
+        "protocol_keys": PROTOCOL_KEYS,
         "summaries": [summarize(t) for t in tables],
+        "claims": claims_section(store, paper),
         "tables": tables,
         **figures,
         "beyond": beyond_section(store, LONG_TERM_TF, horizon_models(registered),

@@ -2,8 +2,8 @@
 benchmark (paper Tables 1-2).
 
 Loads the best epoch of `train_short_term_baseline` (its config from the checkpoint) and scores it
-on every test window at each K of `k_sdd` / `k_ethucy`, over `rounds` seeded rounds; ETH/UCY errors
-in metres (`pipeline.runners.short_term`). Also writes every round of the first K's test predictions
+on every test window at each K of `k_sdd` / `k_ethucy`, over `rounds` seeded rounds, in the unit it
+was trained in (SDD pixels, ETH/UCY metres: `pipeline.runners.short_term_baselines`). Also writes every round of the first K's test predictions
 in the benchmark's unit (window ids of the dataset's table in `--windows`;
 `pipeline.harness.predictions`). Params: `profile`, `runtime.device`,
 `short_term.n_past`, `short_term.n_future`, `train_baseline.threads`,
@@ -30,8 +30,8 @@ from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTe
 from pipeline.device import describe, select_device
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json
-from pipeline.runners.short_term import (load_dataset, prediction_metadata, run_record,
-                                         score_baseline)
+from pipeline.runners.short_term import prediction_metadata, run_record, score_baseline
+from pipeline.runners.short_term_baselines import load_in_unit
 
 
 @exit_on_bad_intermediate
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(load_section(RuntimeParams, "runtime", params).device)
     print(f"evaluate_short_term_baseline: {args.model} on {describe(device)}")
 
-    bench, _ = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
+    bench = load_in_unit(args.windows, args.dataset, windows.n_past, windows.n_future)
     torch.set_num_threads(load_section(TrainBaselineParams, "train_baseline", params).threads)
     ks = settings.ks(args.dataset)
     kept = PredictionRounds(bench.test.window_id)

@@ -1,7 +1,7 @@
 """Stage `score_predictions`: the metrics beyond the paper's tables, from the stored long-term
-predictions alone (no model runs): best-endpoint ADE, miss rate, KDE NLL, off-limits share beside
-the ground truth's, collisions, and the paper's min-ADE / min-FDE, each as mean and std over the
-stored rounds and per scene (`pipeline.harness.stored_scores`).
+predictions alone (no model runs): best-endpoint ADE, S-GAN's sequence ADE / FDE, miss rate, KDE
+NLL, off-limits share beside the ground truth's, collisions, and the paper's min-ADE / min-FDE,
+each as mean and std over the stored rounds and per scene (`pipeline.harness.stored_scores`).
 
 Long-term SDD (`--out`): scores `<predictions>/tf<H>/<model>.parquet` against
 `<horizon-windows>/tf<H>.parquet` for every t_f in `windows.horizons`, and

@@ -1,9 +1,9 @@
 """Stage `score_short_term_predictions`: the metrics beyond the paper's Tables 1 and 2, from the
 stored short-term predictions alone (no model runs): the paper's min-ADE / min-FDE (pixels for
-TrajNet SDD, metres for ETH/UCY), joint ADE / FDE, best-endpoint ADE, miss rate, KDE NLL,
-off-limits share (SDD: hand labels; ETH/UCY: not road) beside the ground truth's, collisions, each
-as mean and std over the stored rounds and per scene (`pipeline.harness.stored_scores`,
-`pipeline.harness.stored_short_term`).
+TrajNet SDD, metres for ETH/UCY), joint ADE / FDE, best-endpoint ADE, S-GAN's sequence ADE / FDE,
+miss rate, KDE NLL, off-limits share (SDD: hand labels; ETH/UCY: not road) beside the ground
+truth's, collisions, each as mean and std over the stored rounds and per scene
+(`pipeline.harness.stored_scores`, `pipeline.harness.stored_short_term`).
 
 Scores `<predictions>/<dataset>/<model>.parquet` for sdd and the five ETH/UCY folds against the
 test windows of the dataset's table in `--windows`; a file that says why nothing was predicted is

@@ -2,12 +2,15 @@
 benchmark (paper Tables 1-2).
 
 The model's `sgan` / `pecnet` settings with the epochs `short_term_models.<profile>.epochs` gives
-this benchmark; the epoch is selected on a seeded sample of `val_windows` validation windows
+this benchmark and its overrides `short_term_baselines.<profile>.<model>.<benchmark>`, trained in
+the benchmark's unit (SDD pixels, ETH/UCY metres: `pipeline.runners.short_term_baselines`); the
+epoch is selected on a seeded sample of `val_windows` validation windows
 (`pipeline.runners.short_term`). Writes the checkpoint folder (its `best.pt` holds the model's
 config; resumable, and SIGTERM / SIGINT or `runtime.max_minutes` checkpoint mid-epoch and exit
 143 / 130 / 75) and the training record. Params: `profile`, `runtime.device`, `runtime.max_minutes`,
 `short_term.n_past`, `short_term.n_future`, `train_baseline` (seed, threads), `<model>.<profile>`,
-`short_term_models.<profile>`: `epochs.<model>`, `val_windows`, `seed`.
+`short_term_models.<profile>`: `epochs.<model>`, `val_windows`, `seed`;
+`short_term_baselines.<profile>.<model>.<benchmark>`.
 
     python -m pipeline.stages.train_short_term_baseline --dataset eth --model pecnet \
         --windows data/short_term --checkpoint-dir checkpoints/short_term/eth_pecnet \
@@ -17,7 +20,6 @@ config; resumable, and SIGTERM / SIGINT or `runtime.max_minutes` checkpoint mid-
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -26,10 +28,10 @@ from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTe
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
 from pipeline.device import describe, select_device
-from pipeline.harness.baseline_runs import model_config
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
-from pipeline.runners.short_term import benchmark_of, load_dataset, train_baseline, training_record
+from pipeline.runners.short_term import benchmark_of, train_baseline, training_record
+from pipeline.runners.short_term_baselines import baseline_config, load_in_unit
 
 
 @exit_when_stopped
@@ -51,14 +53,15 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(runtime.device)
     print(f"train_short_term_baseline: {args.model} on {describe(device)}")
 
-    bench, _ = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
+    bench = load_in_unit(args.windows, args.dataset, windows.n_past, windows.n_future)
     seeds = load_section(TrainBaselineParams, "train_baseline", params)
     torch.set_num_threads(seeds.threads)
-    config = replace(model_config(args.model, params),
-                     epochs=settings.epochs[args.model][benchmark_of(args.dataset)])
+    config = baseline_config(args.model, args.dataset, params,
+                             settings.epochs[args.model][benchmark_of(args.dataset)])
     with Preemption(runtime.max_minutes) as preemption:
         facts = train_baseline(args.model, bench, config, args.checkpoint_dir, seeds.seed,
                                settings.val_windows, settings.seed, device, preemption)
+    facts["unit"] = bench.unit  # of the windows trained on, and of best_val_ade_px
     write_json(training_record(args.dataset, args.model, profile, facts), args.metrics)
 
 

@@ -1,0 +1,307 @@
+"""Where each paper number came from and how ours compares under its protocol
+(`pipeline.report.provenance`, used by `pipeline.report.page`): every paper cell's provenance, the
+metric key each protocol reads from the stored-prediction scores ("not scored yet" without it), the
+cause of a difference, and the At-a-glance counts."""
+
+from __future__ import annotations
+
+import copy
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from pipeline.report import page as report
+from pipeline.report import provenance
+from pipeline.report.lookups import Absent, Measured, MetricsStore, load_metrics
+from tests.test_report import (BANDS, ETHUCY_SCENES, PAPER, beyond_model, data_metrics,  # noqa: F401
+                               model_metrics, project, run_report, write_metrics)
+
+RAW = yaml.safe_load(PAPER.read_text())
+
+
+def all_cells(paper: dict) -> list[tuple[str, provenance.CellSource]]:
+    """(where, source) of every paper cell of Tables 1-4, from the loaded values."""
+    found = []
+    for key in ("sdd_short", "sdd_long", "ttst"):
+        for i, column in enumerate(paper[key]["columns"]):
+            found += [(f"{key}[{i}].{m}", column["cells"][m]) for m in ("ade", "fde")]
+    for model in paper["eth_ucy"]["models"]:
+        for metric in ("ade", "fde"):
+            found += [(f"eth_ucy.{model['model']}.{metric}.{scene}", source)
+                      for scene, source in model["cells"][metric].items()]
+    return found
+
+
+def test_every_cell_of_every_table_has_who_measured_it_its_source_and_protocol():
+    paper = provenance.load_paper_values(PAPER)
+    cells = all_cells(paper)
+    assert len(cells) == 2 * 10 + 2 * 6 * 6 + 2 * 12 + 2 * 5  # Tables 1, 2 (with AVG), 3, 4
+    for where, source in cells:
+        assert source.measured_by in ("ynet_authors", "quoted"), where
+        assert source.protocol in ("independent_min", "sgan_sequence", "pecnet_best_endpoint",
+                                   "unknown"), where
+        assert isinstance(source.source, str) and source.source.strip(), where
+        note = source.differs_because
+        assert note is None or note.cause in ("source", "budget"), where
+    by_where = dict(cells)
+    # The facts the yaml must carry (upstream's account of each number).
+    assert by_where["eth_ucy.sgan.ade.eth"].protocol == "sgan_sequence"
+    assert "SGAN-20VP-20" in by_where["eth_ucy.sgan.fde.avg"].source
+    assert by_where["eth_ucy.pecnet.ade.avg"].protocol == "pecnet_best_endpoint"
+    for i, column in enumerate(RAW["sdd_short"]["columns"]):
+        expected = {"ynet": "ynet_authors"}.get(column["model"], "quoted")
+        assert by_where[f"sdd_short[{i}].ade"].measured_by == expected, column
+        if column["model"] == "pecnet":
+            assert by_where[f"sdd_short[{i}].fde"].protocol == "pecnet_best_endpoint"
+    for i, column in enumerate(RAW["sdd_long"]["columns"]):
+        source = by_where[f"sdd_long[{i}].fde"]
+        assert (source.measured_by, source.protocol) == ("ynet_authors", "independent_min")
+        if column["model"] != "ynet":
+            assert "no code released" in source.source, column
+    assert {s.measured_by for w, s in cells if w.startswith("ttst")} == {"ynet_authors"}
+    assert {s.differs_because.cause for w, s in cells if w.startswith("sdd_long")
+            and s.differs_because} == {"source"}  # S-GAN (SDD) and R-PECNet: the authors' retrains
+
+
+def broken(edit) -> dict:
+    paper = copy.deepcopy(RAW)
+    edit(paper)
+    return paper
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda p: p["eth_ucy"]["models"][2].pop("protocol"),
+     r"Table 2 \(eth_ucy\), CGNS ADE eth: protocol is None"),
+    (lambda p: p["sdd_long"]["provenance"]["pecnet"].update(measured_by="us"),
+     r"Table 3 \(sdd_long\), SDD PECNet \(k_a = 1\) ADE: measured_by is 'us'"),
+    (lambda p: p["sdd_short"]["provenance"]["cfvae"].pop("source"),
+     r"Table 1 \(sdd_short\), CF-VAE \(k = 20\) ADE: no source"),
+    (lambda p: p["ttst"]["provenance"].pop("ynet"),
+     r"Table 4 \(ttst\), SDD ynet \(ablation = none\) ADE: measured_by is None"),
+    (lambda p: p["sdd_long"]["provenance"]["rpecnet"].update(
+        differs_because={"cause": "seed spread", "note": "x"}),
+     r"Table 3 .*R-PECNet.*cause is 'seed spread' \(computed from our metrics"),
+    (lambda p: p["eth_ucy"]["models"][0].update(
+        differs_because={"fdf": {"cause": "budget", "note": "x"}}),
+     r"Table 2 .*S-GAN ADE eth: differs_because .* key it by ade, fde"),
+    (lambda p: p["sdd_short"]["provenance"].update(sgann={"measured_by": "quoted"}),
+     r"Table 1 \(sdd_short\): provenance for \['sgann'\]"),
+])
+def test_a_missing_or_unknown_provenance_value_names_the_table_and_cell(edit, message):
+    with pytest.raises(provenance.PaperValuesError, match=message):
+        provenance.with_provenance(broken(edit))
+
+
+def test_a_field_given_per_cell_overrides_the_models_and_notes_can_be_per_metric_and_scene():
+    def edit(p):
+        note = {"cause": "budget", "note": "short training"}
+        p["eth_ucy"]["models"][-1]["differs_because"] = {"fde": {"hotel": note}}
+        p["sdd_short"]["columns"][0]["protocol"] = "sgan_sequence"
+    paper = provenance.with_provenance(broken(edit))
+    ynet = paper["eth_ucy"]["models"][-1]["cells"]
+    assert ynet["fde"]["hotel"].differs_because == provenance.Explanation("budget",
+                                                                          "short training")
+    assert ynet["fde"]["eth"].differs_because is None
+    assert ynet["ade"]["hotel"].differs_because is None
+    assert paper["sdd_short"]["columns"][0]["cells"]["ade"].protocol == "sgan_sequence"
+    assert provenance.with_provenance(paper)["sdd_short"]["columns"][0]["cells"] == \
+        paper["sdd_short"]["columns"][0]["cells"]  # applying it again changes nothing
+
+
+# ---------------------------------------------------------------------------------------------
+# Ours under the cell's protocol
+
+
+@pytest.mark.parametrize("protocol, metric, key", [
+    ("independent_min", "ade", "ade"), ("independent_min", "fde", "fde"),
+    ("pecnet_best_endpoint", "ade", "ade_best_endpoint"), ("pecnet_best_endpoint", "fde", "fde"),
+    ("sgan_sequence", "ade", "ade_sgan_sequence"), ("sgan_sequence", "fde", "fde_sgan_sequence"),
+    ("unknown", "ade", None)])
+def test_each_protocol_reads_its_own_metric_key(protocol, metric, key):
+    assert provenance.metric_key(protocol, metric) == key
+    asked = []
+    value = provenance.under_protocol(protocol, metric,
+                                      lambda k: asked.append(k) or Measured(1.0, None, 1, k))
+    if protocol == "independent_min":  # the headline itself: nothing to add
+        assert value is None and asked == []
+    elif key is None:
+        assert isinstance(value, Absent) and value.kind == "unknown" and asked == []
+    else:
+        assert asked == [key] and value.source == key
+
+
+def scores(with_sequence: bool) -> dict:
+    """metrics/beyond/short_term.json: S-GAN, PECNet and Y-net on SDD and every ETH/UCY fold, with
+    S-GAN's sequence metrics (`with_sequence`) as the producer will write them."""
+    def model(name: str, ade: float) -> dict:
+        record = beyond_model(name, ade, rounds=1)
+        if with_sequence:
+            record["metrics"]["ade_sgan_sequence"] = {"mean": ade + 0.03125, "std": 0.0}
+            record["metrics"]["fde_sgan_sequence"] = {"mean": 2 * ade + 0.0625, "std": 0.0}
+        return record
+    benchmarks = {"sdd": {"unit": "px", "models": {m: model(m, a) for m, a in
+                                                   (("ynet", 9.0), ("sgan", 13.5), ("pecnet", 10.25))}}}
+    for i, scene in enumerate(ETHUCY_SCENES):
+        benchmarks[scene] = {"unit": "m", "models": {m: model(m, a + 0.0625 * i) for m, a in
+                                                     (("ynet", 0.25), ("sgan", 0.5), ("pecnet", 0.375))}}
+    return {"thresholds": {}, "benchmarks": benchmarks}
+
+
+def store_of(files: dict) -> MetricsStore:
+    return MetricsStore("metrics", files)
+
+
+def test_stored_scores_are_read_under_the_protocol_or_say_not_scored():
+    store = store_of({"beyond/short_term.json": scores(with_sequence=True)})
+    found = provenance.short_term_score(store, "eth", "sgan", "ade_sgan_sequence", 20)
+    assert isinstance(found, Measured) and found.mean == 0.5 + 0.03125
+    without = store_of({"beyond/short_term.json": scores(with_sequence=False)})
+    missing = provenance.short_term_score(without, "eth", "sgan", "ade_sgan_sequence", 20)
+    assert isinstance(missing, Absent) and missing.reason == "not scored yet"
+    other_k = provenance.short_term_score(store, "sdd", "pecnet", "ade_best_endpoint", 5)
+    assert isinstance(other_k, Absent) and other_k.reason == "scored at K = 20 only"
+    no_file = provenance.short_term_score(store_of({}), "sdd", "pecnet", "ade_best_endpoint", 20)
+    assert isinstance(no_file, Absent) and "missing" in no_file.reason
+    long_term = store_of({"beyond/long_term.json": {"tables": {
+        "tf30": {"models": {"sgan": beyond_model("sgan", 90.0)}},
+        "release_tf30": {"models": {"ynet": beyond_model("ynet", 50.5)}}}}})
+    assert provenance.long_term_score(long_term, "sdd", "ynet", 1, "ade_best_endpoint", 30).mean == 54.75
+    assert provenance.long_term_score(long_term, "sdd", "sgan", 1, "ade", 30).mean == 90.0
+    assert provenance.long_term_score(long_term, "sdd", "ynet", 2, "ade", 30).reason == \
+        "scored at K_a = 1 only"
+
+
+def short_term_tables(root: Path, with_sequence: bool) -> dict[str, report.Table]:
+    files = data_metrics() | model_metrics()
+    for scene in ETHUCY_SCENES:  # S-GAN and PECNet measured beside Y-net
+        models = files[f"short_term/ethucy_{scene}.json"]["models"]
+        models["sgan"] = {"ade": {"mean": 0.75, "std": 0.0}, "fde": {"mean": 1.5, "std": 0.0}}
+        models["pecnet"] = {"ade": {"mean": 0.5, "std": 0.0}, "fde": {"mean": 1.0, "std": 0.0}}
+    files["beyond/short_term.json"] = scores(with_sequence)
+    write_metrics(root / "metrics", files)
+    store = load_metrics(root / "metrics", "metrics")
+    return {t.key: t for t in report.build_tables(RAW, store, BANDS)}
+
+
+def column_cells(table: report.Table, group: str, label: str) -> dict[str, report.Cell]:
+    i = next(i for i, c in enumerate(table.columns) if (c.group, c.label) == (group, label))
+    return {row.label: row.cells[i] for row in table.rows}
+
+
+def test_a_cell_under_another_protocol_is_compared_with_ours_under_it(project):
+    table = short_term_tables(project, with_sequence=True)["eth_ucy"]
+    sgan = column_cells(table, "S-GAN", "ADE")
+    eth = sgan["ETH"]
+    assert eth.ours.mean == 0.75  # the headline stays
+    assert eth.own.mean == pytest.approx(0.5 + 0.03125)  # S-GAN's protocol, stored scores
+    assert eth.diff == pytest.approx((0.53125 - 0.81) / 0.81)
+    assert eth.headline_diff == pytest.approx((0.75 - 0.81) / 0.81)
+    assert eth.band == "far" and eth.mark == "q1" and eth.source.quoted
+    scene_values = [0.5 + 0.0625 * i + 0.03125 for i in range(5)]
+    assert sgan["AVG"].own.mean == pytest.approx(np.mean(scene_values))
+    pecnet = column_cells(table, "PECNet", "ADE")["HOTEL"]
+    assert pecnet.own.mean == pytest.approx(0.375 + 0.0625 + 4.25)  # ade_best_endpoint
+    ynet = column_cells(table, "Y-net", "FDE")["ETH"]
+    assert ynet.own is None and ynet.diff == ynet.headline_diff  # the headline's protocol
+    assert table.protocols == ("independent_min", "sgan_sequence", "pecnet_best_endpoint", "unknown")
+
+
+def test_without_the_key_a_cell_says_not_scored_and_keeps_the_headline_comparison(project):
+    tables = short_term_tables(project, with_sequence=False)
+    eth = column_cells(tables["eth_ucy"], "S-GAN", "FDE")["ETH"]
+    assert isinstance(eth.own, Absent) and eth.own.reason == "not scored yet"
+    assert eth.diff == eth.headline_diff == pytest.approx((1.5 - 1.52) / 1.52)
+    assert column_cells(tables["eth_ucy"], "S-GAN", "FDE")["AVG"].own.reason == "not scored yet"
+    html = run_report(project).read_text()
+    assert "S-GAN per sequence:</span> <span class=\"why\">not scored yet</span>" in html
+    assert "PECNet best endpoint</span> <span class=\"ours-value\">" in html
+    assert "per sequence of co-observed pedestrians" in html  # the protocol's line in the caption
+    assert '<sup class="src quoted"' in html and "quoted from S-GAN paper" in html
+
+
+# ---------------------------------------------------------------------------------------------
+# Why a cell differs, and the counts
+
+
+NOTE = provenance.Explanation("source", "the authors' own retrain")
+QUOTED = provenance.CellSource("quoted", "a paper", "pecnet_best_endpoint")
+AUTHORS = provenance.CellSource("ynet_authors", "Y-net authors' run", "independent_min")
+NOTED = provenance.CellSource("ynet_authors", "Y-net authors' retrain", "independent_min", NOTE)
+
+
+@pytest.mark.parametrize("headline, own, seeds, source, verdict", [
+    (0.10, None, None, AUTHORS, "match"),
+    (-0.15, 0.10, None, QUOTED, "match"),  # within under both protocols
+    (-0.15, 0.40, None, QUOTED, "unknown"),  # the cell's own protocol decides, not the headline
+    (-0.15, None, None, QUOTED, "match"),  # not scored under its own protocol: the headline
+    (0.50, 0.15, None, QUOTED, "protocol"),
+    (0.50, 0.45, (90.0, 110.0, 3), QUOTED, "seed spread"),  # paper 100 within our seeds
+    (0.50, None, (101.0, 110.0, 3), AUTHORS, "unknown"),  # paper 100 outside them
+    (0.50, None, (90.0, 110.0, 3), NOTED, "seed spread"),  # a measured cause before a written one
+    (0.50, None, None, NOTED, "source"),
+    (-0.60, 0.35, None, QUOTED, "unknown"),
+])
+def test_the_cause_of_a_difference(headline, own, seeds, source, verdict):
+    why = provenance.why_differs(100.0, headline, own, 0.20, source, seeds)
+    assert why.verdict == verdict
+    if verdict == "source":
+        assert why.detail == NOTE.note
+    if verdict == "seed spread":
+        assert "90.00-110.00" in why.detail
+
+
+def test_seed_range_needs_two_training_seeds():
+    record = {"entries": [
+        {"model": "pecnet", "horizon": 30, "seeds": [0, 1, 2],
+         "over_training_seeds": {"fde": {"mean": 1, "std": 1, "min": 150.0, "max": 199.5}}},
+        {"model": "ynet", "horizon": 30, "seeds": [0], "not_run_reason": "cpu profile"}]}
+    store = store_of({"baseline_seed_spread.json": record})
+    assert provenance.seed_range(store, "pecnet", 30, "fde") == (150.0, 199.5, 3)
+    assert provenance.seed_range(store, "ynet", 30, "fde") is None
+    assert provenance.seed_range(store, "pecnet", 20, "fde") is None
+
+
+def test_glance_counts_each_compared_cell_once():
+    def cell(paper, ours, own=None, source=QUOTED, seeds=None):
+        return report.paper_cell(paper, Measured(ours, None, 1, "x"), BANDS, source, "c",
+                                 None if own is None else Measured(own, None, 1, "y"), seeds=seeds)
+    noted = provenance.CellSource("quoted", "b paper", "unknown", NOTE)
+    cells = (cell(10.0, 11.0), cell(10.0, 13.0, own=11.5), cell(10.0, 13.0, own=13.0),
+             cell(10.0, 13.0, seeds=(9.0, 14.0, 3), source=AUTHORS), cell(10.0, 5.0, source=noted),
+             report.paper_cell(10.0, None, BANDS, QUOTED, "paper only"),
+             report.paper_cell(10.0, Absent("not run"), BANDS, AUTHORS, "absent"))
+    table = report.annotated(report.Table("t", 9, "T", "", "px", 2,
+                                          tuple(report.Column("g", f"m{i}") for i in range(7)),
+                                          (report.Row("ADE", cells),)))
+    summary = report.summarize(table)
+    assert summary.verdicts == {"match": 1, "protocol": 1, "seed spread": 1, "source": 1,
+                                "budget": 0, "unknown": 1}
+    assert summary.counts["paper-only"] == 1 and summary.counts["absent"] == 1
+    assert summary.counts["close"] + summary.counts["mid"] + summary.counts["far"] == 5
+    assert cells[1].band == "mid" and cells[1].headline_diff == pytest.approx(0.3)  # coloured by own
+    assert [cause for cause, _, _ in table.differences] == ["protocol", "seed spread", "source",
+                                                            "unknown"]
+    assert [n.mark for n in table.sources] == ["q1", "a1", "q2"]
+
+
+def test_the_page_shows_the_new_glance_counts_and_each_cells_cause(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics())
+    html = run_report(project).read_text()
+    tables = report.build_tables(RAW, load_metrics(project / "metrics", "metrics"), BANDS)
+    glance = html.split('<table class="glance-why">')[1].split("</table>")[0]
+    for table in tables:
+        verdicts = report.summarize(table).verdicts
+        row = glance.split(f'href="#{table.key}"')[1].split("</tr>")[0]
+        numbers = [int(n) for n in re.findall(r'<td class="num">(\d+)</td>', row)]
+        assert numbers == [verdicts["match"], verdicts["protocol"], verdicts["seed spread"],
+                           verdicts["source"], verdicts["budget"],
+                           verdicts["seed spread"] + verdicts["source"] + verdicts["budget"],
+                           verdicts["unknown"]], table.key
+    differing = [c for t in tables for c in t.cells() if c.why and c.why.verdict != "match"]
+    assert differing  # the fixture's numbers are not the paper's
+    assert html.count('data-verdict="') == sum(1 for t in tables for c in t.cells() if c.why)
+    for cell in differing:
+        assert f'data-verdict="{cell.why.verdict}"' in html
