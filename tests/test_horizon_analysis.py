@@ -298,7 +298,7 @@ def test_the_stage_on_two_horizons_without_a_model_to_rerun(tmp_path, monkeypatc
     rows = section["one_population"]["rows"]
     assert rows[0]["ynet_ade"] == pytest.approx(3.0) and rows[0]["own_ynet_ade"] is None
     assert section["leak_total"] == 0
-    assert section["figures"] == [(tmp_path / "figures" / f).as_posix() for f in report.FIGURES.values()]
+    assert section["figures"] == list(report.FIGURES.values())  # names in the stage's folder
 
 
 def test_own_horizon_rows_say_why_a_horizon_was_not_trained(tmp_path, monkeypatch):
@@ -312,9 +312,38 @@ def test_own_horizon_rows_say_why_a_horizon_was_not_trained(tmp_path, monkeypatc
 
 
 def test_report_rows_of_an_empty_record():
-    assert report.section({}) == {"rows": [], "one_population": {"horizon": None, "windows": None,
-                                                                 "rows": []},
-                                  "leak_total": None, "figures": []}
+    assert report.section({}) == {
+        "rows": [], "one_population": {"horizon": None, "windows": None, "rows": []},
+        "findings": {"per_horizon_grows": None, "one_population_grows": None,
+                     "own_models_grow": None, "fastest": None, "slowest": None, "leak_total": None},
+        "leak_total": None, "figures": []}
+
+
+def test_grows_needs_a_rise_at_every_step_and_skips_absent_values():
+    assert report.grows([1.0, 2.0, None, 3.0]) is True
+    assert report.grows([1.0, 3.0, 2.0]) is False
+    assert report.grows([2.0, 2.0]) is False
+    assert report.grows([None, 5.0]) is None
+
+
+def test_findings_read_the_plateau_off_the_record():
+    def horizon(ade, speed):
+        return {"data": {"windows": 3, "speed_px_s": {"median": speed}}, "models": {"ynet": {"ade": ade}}}
+    record = {"per_horizon": {"tf30": horizon(50.0, 22.7), "tf40": horizon(48.0, 4.1)},
+              "one_population": {"horizon": 40, "windows": 3, "per_horizon": {
+                  "tf30": {"longest_predictions_truncated": {"ynet": {"ade": 39.0, "fde": 70.0}},
+                           "own_horizon_models": {"ynet": {"ade": 41.0, "fde": 72.0}}},
+                  "tf40": {"longest_predictions_truncated": {"ynet": {"ade": 48.0, "fde": 80.0}},
+                           "own_horizon_models": {"ynet": {"ade": 48.0, "fde": 80.0}}}}},
+              "leak_check": {"total": 0},
+              "figures": {"curves": "reports/figures/horizons/curves.png"}}
+    found = report.findings(record)
+    assert found["per_horizon_grows"] is False        # the plateau, per horizon ...
+    assert found["one_population_grows"] is True      # ... gone on one population
+    assert found["own_models_grow"] is True
+    assert found["fastest"] == (22.7, 30) and found["slowest"] == (4.1, 40)
+    assert found["leak_total"] == 0
+    assert report.section(record)["figures"] == ["curves.png"]
 
 
 def test_figure_colours_are_the_report_s():

@@ -285,7 +285,9 @@ def run_report(root: Path) -> Path:
         "--segmentation-figures", str(root / "reports/figures/segmentation"),
         "--qualitative", str(root / "data/ynet_predictions/qualitative.npz"),
         "--manifests", str(root / "manifests"), "--dvc-lock", str(root / "dvc.lock"),
-        "--animations", str(root / "reports/figures/animations"), "--out", str(out), "--figures", str(root / "reports/figures/report"),
+        "--animations", str(root / "reports/figures/animations"),
+        "--horizon-figures", str(root / "reports/figures/horizons"),
+        "--out", str(out), "--figures", str(root / "reports/figures/report"),
         "--plots", str(root / "reports/plots"), "--headline", str(root / "reports/headline")])
     return out
 
@@ -801,6 +803,48 @@ def test_no_seed_spread_file_is_explained(project):
     html = run_report(project).read_text()
     section = html.split('id="seed-spread"', 1)[1].split("<h2", 1)[0]
     assert "baseline_seed_spread.json missing" in section and "<table" not in section
+
+
+def horizon_analysis_record() -> dict:
+    """Two horizons: the plateau per horizon (50 then 48 px), a rise on one population."""
+    def horizon(ade: float, speed: float, windows: int) -> dict:
+        return {"data": {"windows": windows, "sources": {"raw": windows}, "speed_px_s": {"median": speed},
+                         "standing_share": 0.1},
+                "models": {"ynet": {"ade": ade, "fde": 2 * ade, "fde_over_ade": 2.0},
+                           "constant_velocity": {"ade": 3 * ade, "fde": 6 * ade}},
+                "straight_to_goal": {"ade": 20.0}}
+    population = {"tf30": {"straight_to_goal": {"ade": 10.0}, "speed_px_s": {"median": 4.0},
+                           "longest_predictions_truncated": {"ynet": {"ade": 39.0, "fde": 70.0}},
+                           "own_horizon_models": {"ynet": {"ade": 41.0, "fde": 72.0}}},
+                  "tf40": {"straight_to_goal": {"ade": 12.0}, "speed_px_s": {"median": 4.1},
+                           "longest_predictions_truncated": {"ynet": {"ade": 48.3, "fde": 80.0}},
+                           "own_horizon_models": {"ynet": {"ade": 48.3, "fde": 80.0}}}}
+    return {"per_horizon": {"tf30": horizon(50.5, 22.7, 382), "tf40": horizon(48.5, 4.1, 84)},
+            "one_population": {"horizon": 40, "windows": 84, "per_horizon": population},
+            "leak_check": {"total": 0},
+            "figures": {"curves": "reports/figures/horizons/curves.png",
+                        "model": "reports/figures/horizons/model.png"}}
+
+
+def test_horizon_analysis_section_shows_both_populations_and_its_figures(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics()
+                  | {"horizon_analysis.json": horizon_analysis_record()})
+    write_png(project / "reports/figures/horizons/curves.png", (200, 0, 0))
+    html = run_report(project).read_text()
+    assert_well_formed(html)
+    section = html.split('id="horizons"', 1)[1].split("<h2", 1)[0]
+    assert "22.7 px/s at 30 s" in section and "4.1 px/s at 40 s" in section
+    assert "does not rise at every horizon;" in section  # per horizon: 50.5 then 48.5
+    assert "So the plateau is who is in each horizon's test set, not the model." in section
+    assert "48.3 / 80.0" in section and "<td class=\"num\">39.0 / 70.0</td>" in section
+    assert section.count("<img") == 1  # model.png is missing: not shown
+    assert "../figures/horizons/curves.png" in section or "figures/horizons/curves.png" in section
+
+
+def test_no_horizon_analysis_file_is_explained(project):
+    write_metrics(project / "metrics", data_metrics() | model_metrics())
+    section = run_report(project).read_text().split('id="horizons"', 1)[1].split("<h2", 1)[0]
+    assert "horizon_analysis.json missing" in section and "<table" not in section
 
 
 def test_a_single_round_shows_no_spread(project):

@@ -92,16 +92,43 @@ def one_population_rows(record: Mapping[str, Any]) -> list[dict[str, Any]]:
     return sorted(rows, key=lambda r: r["t_f"])
 
 
+def grows(values: list[Any]) -> bool | None:
+    """Whether the numbers rise at every step (None with fewer than two numbers)."""
+    numbers = [v for v in values if isinstance(v, (int, float))]
+    if len(numbers) < 2:
+        return None
+    return all(b > a for a, b in zip(numbers, numbers[1:]))
+
+
+def findings(record: Mapping[str, Any]) -> dict[str, Any]:
+    """What the rows say, for the section's text (read off the record, never typed in): whether
+    Y-net's ADE rises with t_f on its own test windows per horizon and on one population (the
+    longest horizon's stored predictions truncated, and each horizon's own model), the fastest and
+    slowest median walker speed across horizons, and the leak-check total."""
+    rows, population = horizon_rows(record), one_population_rows(record)
+    speeds = [(r["median_speed_px_s"], r["t_f"]) for r in rows
+              if isinstance(r["median_speed_px_s"], (int, float))]
+    return {
+        "per_horizon_grows": grows([r["ynet_ade"] for r in rows]),
+        "one_population_grows": grows([r.get(f"{SUBJECT}_ade") for r in population]),
+        "own_models_grow": grows([r.get(f"own_{SUBJECT}_ade") for r in population]),
+        "fastest": max(speeds) if speeds else None,   # (median px/s, t_f)
+        "slowest": min(speeds) if speeds else None,
+        "leak_total": _get(record, "leak_check", "total"),
+    }
+
+
 def section(record: Mapping[str, Any]) -> dict[str, Any]:
     """What a report section needs: `rows` (per horizon), `one_population` (its rows, the horizon
-    and window count), `leak_total` and `figures` (paths as the stage wrote them)."""
+    and window count), `findings`, `leak_total` and `figures` (file names as the stage wrote them)."""
     population = record.get("one_population") or {}
     return {"rows": horizon_rows(record),
             "one_population": {"horizon": population.get("horizon"),
                                "windows": population.get("windows"),
                                "rows": one_population_rows(record)},
+            "findings": findings(record),
             "leak_total": _get(record, "leak_check", "total"),
-            "figures": list((record.get("figures") or {}).values())}
+            "figures": [Path(p).name for p in (record.get("figures") or {}).values()]}
 
 
 # ---------------------------------------------------------------------------------------------

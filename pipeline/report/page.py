@@ -76,6 +76,7 @@ import yaml
 from pipeline.config import ReportParams
 from pipeline.models import ModelEntry
 from pipeline.report.beyond import beyond_section
+from pipeline.report import horizons
 from pipeline.report.claims import claims_section
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)
@@ -1214,6 +1215,7 @@ class Inputs:
     own_outputs: tuple[str, ...] = ()  # the report's outputs, relative to `repo`
     stage_times: Path | None = None  # tools/timed_repro.py's record of `make repro`
     animations: Path | None = None  # stage animations' folder (index.json and the animations)
+    horizon_figures: Path | None = None  # stage horizon_analysis' figures folder
 
 
 @dataclass(frozen=True)
@@ -1269,6 +1271,20 @@ def animation_section(folder: Path | None, html_dir: Path) -> dict[str, Any]:
         return {"absent": Absent(f"{(folder / 'index.json').as_posix()}: not the animations index "
                                  f"({type(e).__name__}: {e})", "invalid"), "benchmarks": []}
     return {"absent": None, "benchmarks": benchmarks}
+
+
+def horizon_analysis_section(store: MetricsStore, folder: Path | None,
+                             html_dir: Path) -> dict[str, Any]:
+    """Stage `horizon_analysis`' record as `pipeline.report.horizons.section` reads it, its
+    figures' <img> src relative to the page (they stay in the stage's folder)."""
+    record = store.record("horizon_analysis.json")
+    if isinstance(record, Absent):
+        return {"absent": record}
+    content = horizons.section(record)
+    figures = [{"src": rel_src(folder / name, html_dir), "found": (folder / name).is_file()}
+               for name in content["figures"]] if folder is not None else []
+    return {"absent": None, "source": store.where("horizon_analysis.json"), **content,
+            "figures": figures}
 
 
 def data_section(store: MetricsStore, scene_counts: Path) -> dict[str, Any]:
@@ -1330,6 +1346,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         "beyond": beyond_section(store, LONG_TERM_TF, horizon_models(registered),
                                  model_colours(registered), slot),
         "seed_spread": seed_spread_section(store),
+        "horizon_analysis": horizon_analysis_section(store, inputs.horizon_figures, html_dir),
         "animations": animation_section(inputs.animations, html_dir),
         "data": data_section(store, inputs.scene_counts),
         "n_test_videos": len(TEST_VIDEOS),

@@ -12,7 +12,8 @@ rows each, under their label and colour; README "Your model here").
         --scene-counts reports/data/windows_per_scene.json \
         --segmentation-figures reports/figures/segmentation/predictions \
         --qualitative data/ynet_predictions/qualitative.npz --manifests manifests --dvc-lock dvc.lock \
-        --animations reports/figures/animations --out reports/index.html \
+        --animations reports/figures/animations --horizon-figures reports/figures/horizons \
+        --out reports/index.html \
         --figures reports/figures/report --plots reports/plots --headline reports/headline
 """
 
@@ -40,6 +41,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="tools/timed_repro.py's stage times (shown when present)")
     parser.add_argument("--animations", type=Path, default=Path("reports/figures/animations"),
                         help="stage animations' folder (index.json and the animated windows)")
+    parser.add_argument("--horizon-figures", type=Path, default=Path("reports/figures/horizons"),
+                        help="stage horizon_analysis' figures folder")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"),
                         help="read for its `report` and `models` sections only")
     parser.add_argument("--out", type=Path, required=True, help="the HTML page written")
@@ -55,7 +58,8 @@ def main(argv: list[str] | None = None) -> None:
                                      args.stage_times))  # the stage times: make repro writes them
     inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.segmentation_figures,
                     args.qualitative, args.manifests, own_outputs=own_outputs,
-                    stage_times=args.stage_times, animations=args.animations)
+                    stage_times=args.stage_times, animations=args.animations,
+                    horizon_figures=args.horizon_figures)
     write_report(inputs, read_lock(args.dvc_lock), report_params, args.out, args.figures,
                  args.plots, args.headline, registered=load_models(params))
 
