@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
+from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, RpecnetRolloutsParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
 from pipeline.config import YnetSeedsParams, load_profile
 from pipeline.runners.ynet_training import YnetSettings
 
@@ -15,7 +15,7 @@ SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,
             "semantic": SemanticParams, "data": DataParams,
             "score_predictions": ScorePredictionsParams,
-            "baseline_seeds": BaselineSeedsParams}
+            "baseline_seeds": BaselineSeedsParams, "rpecnet_rollouts": RpecnetRolloutsParams}
 
 
 def plain(value):
@@ -102,6 +102,18 @@ def test_post_init_checks_surface_as_params_errors():
 def test_score_predictions_thresholds_are_checked(values, match):
     with pytest.raises(ParamsError, match=match):
         from_dict(ScorePredictionsParams, values, "score_predictions")
+
+
+@pytest.mark.parametrize("values, match", [
+    ({"split_for_choice": "test"}, "never test"),
+    ({"variants": []}, "variants must be a non-empty list"),
+    ({"variants": ["independent", "independent"]}, "distinct names"),
+    ({"horizons": [30, 0]}, "horizons must be a non-empty list"),
+    ({"target_fde_over_ade": 0.0}, "positive ratio"),
+])
+def test_rpecnet_rollouts_settings_are_checked(values, match):
+    with pytest.raises(ParamsError, match=match):
+        from_dict(RpecnetRolloutsParams, values, "rpecnet_rollouts")
 
 
 @pytest.mark.parametrize("name", ["params.yaml", "dvc.yaml", "dvc.lock"])

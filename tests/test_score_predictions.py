@@ -231,6 +231,31 @@ def test_sgan_sequence_metrics_over_windows_that_start_together(project):
     assert ynet["metrics"]["ade_sgan_sequence"]["per_round"] == [0.0]
 
 
+def test_one_sample_metrics_average_each_windows_samples(project):
+    """The triangle's samples are 2^0.5, 2^0.5, 2 from the truth at both steps: one sample
+    a = (2 2^0.5 + 2) / 3 for ADE and FDE alike. Round 1: window 10's 577^0.5, 677^0.5,
+    629^0.5 and window 20's 842^0.5, 842^0.5, 32 (window 11 still a)."""
+    record = run(project)
+    got = record["tables"]["tf2"]["models"]["triangle"]
+    a = (2 * math.sqrt(2) + 2) / 3
+    w10 = (math.sqrt(577) + math.sqrt(677) + math.sqrt(629)) / 3
+    w20 = (2 * math.sqrt(842) + 32) / 3
+    for name in ("ade_one_sample", "fde_one_sample"):
+        assert got["metrics"][name]["per_round"] == pytest.approx([a, (w10 + a + w20) / 3])
+        for scene, per_round in (("gates_2", [a, (w10 + a) / 2]), ("hyang_0", [a, w20])):
+            assert got["per_scene"][scene]["metrics"][name] == pytest.approx(
+                {"mean": np.mean(per_round), "std": np.std(per_round)}), (name, scene)
+    # Every sample is worse than the best: above min-ADE in both rounds.
+    assert all(one > best for one, best in zip(got["metrics"]["ade_one_sample"]["per_round"],
+                                               got["metrics"]["ade"]["per_round"]))
+    assert list(got["metrics"])[-4:] == ["ade_sgan_sequence", "fde_sgan_sequence",
+                                         "ade_one_sample", "fde_one_sample"]
+    # Y-net: paths on the truth (ADE 0), FDE on the goals: (5 + 10 + 30) / 3 twice, 50: 80 / 3.
+    ynet = record["tables"]["tf2"]["models"]["ynet"]["metrics"]
+    assert ynet["ade_one_sample"]["per_round"] == [0.0]
+    assert ynet["fde_one_sample"]["per_round"] == pytest.approx([80 / 3])
+
+
 def test_goals_are_the_endpoints_of_fde_best_endpoint_and_miss(project):
     record = run(project)
     for name in ("tf2", "release_tf2"):  # the release-style table: the same windows, other ids

@@ -251,8 +251,10 @@ def test_sgan_sequence_metrics_take_one_sample_per_sequence(project):
         check(got["metrics"], name, [0.5, 1.5])
         assert got["per_scene"]["zara1"]["metrics"][name] == pytest.approx({"mean": 1.0,
                                                                             "std": 0.5})
-    # The keys come after every other metric; S-GAN's symmetric triangles give min-ADE again.
-    assert list(got["metrics"])[-2:] == ["ade_sgan_sequence", "fde_sgan_sequence"]
+    # The keys come after every other metric but the one-sample pair (added later); S-GAN's
+    # symmetric triangles give min-ADE again.
+    assert list(got["metrics"])[-4:] == ["ade_sgan_sequence", "fde_sgan_sequence",
+                                         "ade_one_sample", "fde_one_sample"]
     m, far = zara["sgan"]["metrics"], math.sqrt(0.1 ** 2 + (SHIFT - 0.1) ** 2)
     for name in ("ade_sgan_sequence", "fde_sgan_sequence"):
         check(m, name, [0.1 * math.sqrt(2), (far + 0.1 * math.sqrt(2)) / 2])

@@ -18,9 +18,9 @@ from pipeline.harness.metrics import window_errors
 from pipeline.harness.scoring import (ALLOWED, FORBIDDEN, OUTSIDE, ade_sgan_sequence, aggregate,
                                       best_endpoint_ade, class_values, collisions,
                                       fde_sgan_sequence, forbidden_share, kde_log_pdf, kde_nll,
-                                      mask_pixels, min_ade_fde, miss, per_scene_means,
-                                      scene_compliance, sequence_joint_min, sgan_sequence_scores,
-                                      sgan_sequences, trajectory_scores)
+                                      mask_pixels, min_ade_fde, miss, one_sample_ade_fde,
+                                      per_scene_means, scene_compliance, sequence_joint_min,
+                                      sgan_sequence_scores, sgan_sequences, trajectory_scores)
 
 # The 3-4-5 example of tests/test_metrics.py. Window 0: sample 0 errors (0, 4) -> ADE 2, FDE 4;
 # sample 1 errors (3, 3) -> ADE 3, FDE 3. Window 1: sample 0 errors (5, 10) -> ADE 7.5, FDE 10;
@@ -115,6 +115,34 @@ def test_bad_shapes_are_named(metric):
         metric(PRED[:, 0], TRUTH)
     with pytest.raises(ValueError, match=r"ground truth.*\(2, 2, 2\).*got shape \(2, 3, 2\)"):
         metric(PRED, np.zeros((2, 3, 2)))
+
+
+# ---------------------------------------------------------------------------------------------
+# One sample
+
+
+def test_one_sample_is_the_mean_over_samples_on_the_3_4_5_example():
+    # Window 0: ADE (2, 3) -> 2.5, FDE (4, 3) -> 3.5; window 1: ADE (7.5, 0) -> 3.75, FDE (10, 0)
+    # -> 5. Above min-ADE (2, 0) and min-FDE (3, 0).
+    got = one_sample_ade_fde(PRED, TRUTH)
+    assert list(got) == ["ade_one_sample", "fde_one_sample"]
+    np.testing.assert_array_equal(got["ade_one_sample"], [2.5, 3.75])
+    np.testing.assert_array_equal(got["fde_one_sample"], [3.5, 5.0])
+    # Goals: window 0 (0, 5) -> 2.5, window 1 (5, 5) -> 5; the ADE stays on the paths.
+    goals = np.array([[[2.0, 0.0], [5.0, 4.0]], [[3.0, 4.0], [9.0, 4.0]]])
+    with_goals = one_sample_ade_fde(PRED, TRUTH, goals)
+    np.testing.assert_array_equal(with_goals["fde_one_sample"], [2.5, 5.0])
+    np.testing.assert_array_equal(with_goals["ade_one_sample"], [2.5, 3.75])
+
+
+def test_one_sample_of_a_deterministic_model_is_its_best_of_k():
+    # K copies of one path (the constant-velocity model): every protocol gives the same number.
+    pred = np.repeat(PRED[:, :1], 20, axis=1)  # (2, 20, 2, 2)
+    got, best = one_sample_ade_fde(pred, TRUTH), min_ade_fde(pred, TRUTH)
+    np.testing.assert_array_equal(got["ade_one_sample"], best["ade"])  # (2, 7.5)
+    np.testing.assert_array_equal(got["fde_one_sample"], best["fde"])  # (4, 10)
+    with pytest.raises(ValueError, match=r"predictions must be \(N, K, T, 2\)"):
+        one_sample_ade_fde(PRED[0], TRUTH)
 
 
 # ---------------------------------------------------------------------------------------------

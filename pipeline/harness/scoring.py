@@ -11,6 +11,8 @@ benchmark's unit (original image pixels for SDD, metres for ETH/UCY); optional s
 - `best_endpoint_ade`: ADE of the sample whose endpoint is closest to the true one (PECNet's
   protocol: its test code picks the best destination first, then scores that sample's path).
 - `miss`: whether the best endpoint is further than a stated threshold (the miss rate's windows).
+- `ade_one_sample` / `fde_one_sample` (`one_sample_ade_fde`): the mean over the K samples of each
+  sample's ADE / FDE, the expected error of one sample drawn at random: a K = 1 score from K.
 - `ade_sgan_sequence` / `fde_sgan_sequence`: S-GAN's protocol (its `evaluate_model.py`, the
   source of the paper's ETH/UCY S-GAN row): each sample's error is summed over every window of a
   sequence (`sgan_sequences`: one scene and start frame, as S-GAN's loader groups pedestrians),
@@ -117,6 +119,23 @@ def miss(pred: Any, truth: Any, threshold: Any, goals: Any | None = None) -> np.
     if not np.isfinite(limit).all() or (limit < 0).any():
         raise ValueError(f"threshold must be a finite distance >= 0, got {threshold}")
     return endpoint_errors(pred, truth, goals).min(axis=1) > limit
+
+
+# ---------------------------------------------------------------------------------------------
+# One sample (K = 1 from K stored samples)
+
+ADE_ONE_SAMPLE, FDE_ONE_SAMPLE = "ade_one_sample", "fde_one_sample"
+
+
+def one_sample_ade_fde(pred: Any, truth: Any, goals: Any | None = None) -> dict[str, np.ndarray]:
+    """Per window (N,): `ADE_ONE_SAMPLE` and `FDE_ONE_SAMPLE`, the mean over the K samples of each
+    sample's ADE and FDE: the expected error of one sample drawn at random from the model's K,
+    i.e. the model's K = 1 score, without sampling again. FDE on `goals` (N, K, 2) where given, as
+    `min_ade_fde`'s. At least min-ADE / min-FDE; equal to them when the K samples coincide (a
+    deterministic model) or K = 1."""
+    pred, truth = check_paths(pred, truth)
+    return {ADE_ONE_SAMPLE: step_errors(pred, truth).mean(axis=-1).mean(axis=1),
+            FDE_ONE_SAMPLE: endpoint_errors(pred, truth, goals).mean(axis=1)}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -17,6 +17,9 @@ mean and (population) std over the rounds, and per scene:
   (`scoring.sgan_sequences`; for ETH/UCY exactly S-GAN's sequences, for SDD and inD S-GAN's rule
   applied to these windows). A number of a set of windows, not a mean over them: per round over
   all windows, per scene over the scene's windows;
+- `ade_one_sample`, `fde_one_sample` (`scoring.one_sample_ade_fde`): per window the mean over the
+  K samples of each sample's ADE / FDE (FDE on Y-net's goals), the expected error of one sample
+  drawn at random: the model's K = 1 score from its stored K, nothing sampled again;
 - `miss_rate`: share of windows whose best endpoint is further than `miss_threshold_m` metres
   (converted per scene with its metres per unit: SDD's per-video scales, inD's per recording;
   1 where the unit is metres);
@@ -67,9 +70,11 @@ UNIT = "px"  # the long-term SDD benchmark's unit: original image pixels
 PATH_METRICS = ("ade", "fde", "ade_joint", "fde_joint", "ade_best_endpoint", "miss_rate",
                 "kde_nll", "kde_degenerate_share")  # from the paths alone
 SCENE_METRICS = ("off_limits_share", "collision_rate")  # from the paths in their scenes
-WINDOW_METRICS = PATH_METRICS + SCENE_METRICS  # one value per window, averaged
 SEQUENCE_METRICS = (scoring.ADE_SGAN_SEQUENCE, scoring.FDE_SGAN_SEQUENCE)  # one per set of windows
-METRICS = WINDOW_METRICS + SEQUENCE_METRICS  # every model metric, in the order a record lists them
+ONE_SAMPLE_METRICS = (scoring.ADE_ONE_SAMPLE, scoring.FDE_ONE_SAMPLE)  # K = 1 from the K samples
+WINDOW_METRICS = PATH_METRICS + SCENE_METRICS + ONE_SAMPLE_METRICS  # one value per window, averaged
+# Every model metric, in the order a record lists them (the later additions last).
+METRICS = PATH_METRICS + SCENE_METRICS + SEQUENCE_METRICS + ONE_SAMPLE_METRICS
 TRUTH_METRICS = ("off_limits_share", "collision_rate", "copresent_share")  # of the ground truth
 
 
@@ -393,7 +398,7 @@ def collisions(samples: np.ndarray, inputs: SceneInputs, threshold_m: float
 
 def score_round(arrays: PredictionArrays, inputs: SceneInputs, params: ScorePredictionsParams
                 ) -> tuple[dict[str, np.ndarray], np.ndarray, scoring.Collisions]:
-    """Per window (N,): every metric of `METRICS` for one round; the NLL per window and step
+    """Per window (N,): every metric of `WINDOW_METRICS` for one round; the NLL per window and step
     (N, T); and the collisions (whose ground-truth part is the same every round)."""
     future, to_m = inputs.truth.future, inputs.metres_per_unit
     paths, nll = scoring.trajectory_scores(arrays.samples, future, params.miss_threshold_m / to_m,
@@ -404,7 +409,8 @@ def score_round(arrays: PredictionArrays, inputs: SceneInputs, params: ScorePred
                   "miss_rate": paths["miss"], "kde_nll": paths["kde_nll"],
                   "kde_degenerate_share": paths["kde_degenerate"],
                   "off_limits_share": off_limits_share(arrays.samples, inputs),
-                  "collision_rate": hits.pred_share}
+                  "collision_rate": hits.pred_share,
+                  **scoring.one_sample_ade_fde(arrays.samples, future, arrays.goals)}
     return per_window, nll, hits
 
 

@@ -188,9 +188,12 @@ class Batch:
 
 
 def make_batch(past: np.ndarray, groups: np.ndarray, config: PecnetConfig,
-               future: np.ndarray | None = None, device: torch.device = CPU) -> Batch:
-    """past (B, n_p, 2), future (B, n_f, 2) in pixels; tensors on `device`."""
-    origin = past[:, 0]  # (B, 2)
+               future: np.ndarray | None = None, device: torch.device = CPU,
+               origin: np.ndarray | None = None) -> Batch:
+    """past (B, n_p, 2), future (B, n_f, 2) in pixels; tensors on `device`. Each window is shifted
+    by its first observed point, or by `origin` (B, 2) where given (the R-PECNet diagnostic's
+    re-centring slip: any other point puts the input off the origin the model was trained at)."""
+    origin = past[:, 0] if origin is None else origin  # (B, 2)
     mask = common.neighbour_mask(as_input(groups, device), as_input(past, device), config.neighbour_radius)
 
     def norm(xy: np.ndarray) -> torch.Tensor:
@@ -298,23 +301,39 @@ class Pecnet:
         model.net.eval()
         return model
 
+    def draw_latent(self, n: int, k: int, generator: torch.Generator) -> torch.Tensor:
+        """(n, k, latent_dim) standard-normal draws on `generator`'s device, for `sample(latent=)`
+        (a caller that keeps one z per sample path across several calls)."""
+        return torch.randn(n, k, self.config.latent_dim, generator=generator, device=generator.device)
+
     @torch.no_grad()
     def sample(self, past: np.ndarray, groups: np.ndarray, k: int, generator: torch.Generator,
-               batch_size: int = 1024) -> np.ndarray:
+               batch_size: int = 1024, latent: torch.Tensor | None = None,
+               origin: np.ndarray | None = None) -> np.ndarray:
         """K sampled futures (N, k, n_f, 2) in pixels of observed tracks past (N, n_p, 2);
         windows with equal `groups` co-occur (pool with each other). z is drawn on `generator`'s
-        device."""
+        device, or taken from `latent` (N, k, latent_dim) standard-normal draws (`draw_latent`;
+        scaled by sigma as drawn ones are; `generator` then unused). `origin` (N, 2): the point
+        each window is shifted by before the model and back after it, instead of its first
+        observed point (`make_batch`)."""
         if past.ndim != 3 or past.shape[1:] != (self.n_past, 2):
             raise ValueError(f"PECNet takes (N, {self.n_past}, 2) observed tracks, got {past.shape}")
+        if latent is not None and tuple(latent.shape) != (len(past), k, self.config.latent_dim):
+            raise ValueError(f"latent must be (N, k, latent_dim) = "
+                             f"{(len(past), k, self.config.latent_dim)}, got {tuple(latent.shape)}")
+        if origin is not None and origin.shape != (len(past), 2):
+            raise ValueError(f"origin must be (N, 2) = {(len(past), 2)}, got {origin.shape}")
         self.net.eval()
         out = np.zeros((len(past), k, self.n_future, 2))
         for index in common.group_batches(groups, batch_size):
-            batch = make_batch(past[index], groups[index], self.config, device=self.device)
+            batch = make_batch(past[index], groups[index], self.config, device=self.device,
+                               origin=None if origin is None else origin[index])
+            rows = None if latent is None else latent[torch.as_tensor(index, device=latent.device)]
             samples = []
-            for _ in range(k):
-                z = self.config.sigma * to_device(
-                    torch.randn(len(index), self.config.latent_dim, generator=generator, device=generator.device),
-                    self.device)
+            for s in range(k):
+                noise = (torch.randn(len(index), self.config.latent_dim, generator=generator,
+                                     device=generator.device) if rows is None else rows[:, s])
+                z = self.config.sigma * to_device(noise, self.device)
                 endpoint, path, _, _ = self.net(batch.past, batch.position, batch.mask, z=z)
                 samples.append(torch.cat([path, endpoint[:, None]], dim=1))  # (B, n_f, 2)
             future = torch.stack(samples, dim=1).double().cpu().numpy()  # (B, k, n_f, 2): one copy back
