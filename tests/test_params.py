@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, ReportParams, RpecnetRolloutsParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
+from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, PecnetTestSelectionParams, ReportParams, RpecnetRolloutsParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
 from pipeline.config import YnetSeedsParams, load_profile
 from pipeline.runners.ynet_training import YnetSettings
 
@@ -15,7 +15,8 @@ SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,
             "semantic": SemanticParams, "data": DataParams,
             "score_predictions": ScorePredictionsParams,
-            "baseline_seeds": BaselineSeedsParams, "rpecnet_rollouts": RpecnetRolloutsParams}
+            "baseline_seeds": BaselineSeedsParams, "rpecnet_rollouts": RpecnetRolloutsParams,
+            "pecnet_test_selection": PecnetTestSelectionParams}
 
 
 def plain(value):

@@ -217,6 +217,7 @@ def run_training(
     generator: torch.Generator,
     device: torch.device = CPU,
     preemption: Preemption = NEVER,
+    after_epoch: Callable[[int], None] | None = None,
 ) -> FitResult:
     """The epoch loop every trained baseline uses: resume, train, validate, checkpoint, keep best.
 
@@ -240,6 +241,12 @@ def run_training(
     `preemption.stop_reason()`; when it is set, `last.pt` gets a position (the epoch, the index of
     the next batch, the epoch's batches as drawn and its running loss sums), next to the modules,
     optimizers and RNG states as they are at that point, and `preemption.request(...)` is raised.
+
+    after_epoch(epoch), when given, is called once the epoch is validated and checkpointed, with the
+    modules still holding that epoch's weights (in eval mode, under `torch.no_grad`): a diagnostic
+    may score them (stage `pecnet_test_selection`). It must leave the modules and `generator` as
+    it found them; its time is not counted in `train_seconds`, and an epoch finished before a
+    resume is not called again. None (the training stages): nothing else happens.
     """
     checkpoint_dir = Path(checkpoint_dir)
     checkpoint_dir.mkdir(parents=True, exist_ok=True)
@@ -318,6 +325,9 @@ def run_training(
                             "modules": recent[chosen]}, best_path(checkpoint_dir, rule))
         recent = {e: weights for e, weights in recent.items() if e > epoch - epoch_selection.MAX_HALF_WIDTH - 1}
         save_last(epoch + 1, None, recent[epoch])
+        if after_epoch is not None:
+            with torch.no_grad():
+                after_epoch(epoch)
         bar.set_postfix(val_ade=f"{val:.1f}", best=f"{curve[kept['raw']]:.1f}@{kept['raw']}")
     if not history:
         raise ValueError(f"{name}: no epoch trained (epochs = {epochs})")

@@ -26,6 +26,7 @@ a larger learning rate (1e-3).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -243,7 +244,11 @@ class Pecnet:
 
     @classmethod
     def fit(cls, train: WindowArrays, val: WindowArrays, config: PecnetConfig, checkpoint_dir: Path,
-            seed: int, device: torch.device = CPU, preemption: Preemption = NEVER) -> Pecnet:
+            seed: int, device: torch.device = CPU, preemption: Preemption = NEVER,
+            after_epoch: Callable[[Pecnet, int], None] | None = None) -> Pecnet:
+        """Train on `train`, keeping the epochs the selection rules choose on `val`
+        (`common.run_training`). `after_epoch(model, epoch)`, when given, sees the model with each
+        epoch's weights once it is validated (a diagnostic's per-epoch hook; None: training only)."""
         if len(train) == 0 or len(val) == 0:
             raise ValueError("PECNet needs training and validation windows")
         rng = common.seed_everything(seed, device)
@@ -274,7 +279,8 @@ class Pecnet:
             epochs=config.epochs, config=dataclasses.asdict(config),
             meta={"n_past": model.n_past, "n_future": model.n_future, "seed": seed},
             data_fingerprint=common.fingerprint(seed, train, val),
-            checkpoint_dir=checkpoint_dir, generator=rng, device=device, preemption=preemption)
+            checkpoint_dir=checkpoint_dir, generator=rng, device=device, preemption=preemption,
+            after_epoch=None if after_epoch is None else (lambda epoch: after_epoch(model, epoch)))
         return model
 
     def train_step(self, batch: Batch, optimizer: torch.optim.Optimizer, rng: torch.Generator) -> np.ndarray:

@@ -1,0 +1,54 @@
+"""Stage `pecnet_test_selection`: a labelled compat diagnostic of upstream PECNet's epoch selection
+on the TEST set; never a headline number.
+
+For every horizon of `pecnet_test_selection.horizons`, PECNet is retrained exactly as
+`train_baseline@pecnet-<t_f>` trains it, in a temporary folder (the stage's checkpoints are never
+touched), and after every epoch the test windows are scored (best of K, one seeded sampling) under
+our protocol and PECNet's (`pipeline.harness.pecnet_test_selection`). The record: per epoch the
+validation ADE and both protocols' test ADE / FDE; the epoch kept on validation
+(`evaluate_baseline.epoch_selection`) and its test numbers; upstream's best test ADE and best test
+FDE over epochs, each with its epoch; whether the retrain kept `train_baseline`'s epoch.
+Params: `pecnet_test_selection`, `train_baseline` (seed, threads), `pecnet.<profile>`, `profile`,
+`windows.n_past`, `evaluate_baseline.epoch_selection`, `runtime.device`.
+
+    python -m pipeline.stages.pecnet_test_selection --tables data/horizon_windows/tf30.parquet \
+        --training-facts metrics/baselines/train_pecnet_tf30.json \
+        --out metrics/pecnet_test_selection.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+from pipeline.config import read_params
+from pipeline.harness.pecnet_test_selection import diagnose
+from pipeline.io import write_json
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tables", type=Path, nargs="+", required=True,
+                        help="window tables tf<t_f>.parquet, one per horizon of the params")
+    parser.add_argument("--training-facts", type=Path, nargs="+", required=True,
+                        help="train_pecnet_tf<t_f>.json of stage train_baseline, one per horizon")
+    parser.add_argument("--out", type=Path, required=True, help="JSON written")
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory(prefix="pecnet_test_selection_") as scratch:
+        record = diagnose(read_params(), args.tables, args.training_facts, Path(scratch))
+    for name, row in record["per_horizon"].items():
+        kept, compat = row["validation_selected"], row["compat"]
+        for protocol in record["protocols"]:
+            print(f"pecnet_test_selection {name} {protocol}: epoch {kept['epoch']} kept on val: "
+                  f"{kept['test'][protocol]['ade']:.2f} / {kept['test'][protocol]['fde']:.2f}; "
+                  f"compat (selected on test): ADE {compat[protocol]['best_ade']['value']:.2f} "
+                  f"@ {compat[protocol]['best_ade']['epoch']}, FDE "
+                  f"{compat[protocol]['best_fde']['value']:.2f} @ {compat[protocol]['best_fde']['epoch']}")
+        print(f"pecnet_test_selection {name}: train_baseline's epoch reproduced: "
+              f"{row['training_reproduced']['same']}")
+    write_json(record, args.out)
+
+
+if __name__ == "__main__":
+    main()
