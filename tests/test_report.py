@@ -1256,3 +1256,27 @@ def test_the_time_section_says_when_stages_ran_side_by_side(project, monkeypatch
     html = run_report(project).read_text()
     assert "33.5 min in all" in html and "50.0 min" in html  # the run's wall time; the stages' sum
     assert ("Up to 2 single-threaded stages ran at once" in html) == (jobs == 2)
+
+
+def test_table3_diagnostics_section_shows_k1_the_rollout_and_the_compat_rows(project):
+    files = data_metrics() | model_metrics()
+    files["rpecnet_rollouts.json"] = {
+        "target_fde_over_ade": 2.872, "horizons": {"tf30": {
+            "t_f": 30, "chosen": "original_frame",
+            "choice": {"split": "val", "n_windows": 156, "variants": {
+                "original_frame": {"ade": 261.6, "fde": 607.4, "fde_over_ade": 2.32}}},
+            "test": {"variant": "original_frame", "n_windows": 382, "ade": 274.24, "fde": 611.77}}}}
+    files["pecnet_test_selection.json"] = {"per_horizon": {"tf30": {
+        "validation_selected": {"epoch": 29, "test": {"headline": {"ade": 82.44, "fde": 173.75},
+                                                      "pecnet": {"ade": 89.18, "fde": 173.75}}},
+        "compat": {p: {"best_ade": {"value": 81.14, "epoch": 35}, "best_fde": {"value": 158.89, "epoch": 38}}
+                   for p in ("headline", "pecnet")}}}}
+    write_metrics(project / "metrics", files)
+    html = run_report(project).read_text()
+    assert_well_formed(html)
+    section = html.split('id="diagnostics"', 1)[1].split('id="fig-horizon"', 1)[0]
+    assert "PECNet 72.22 / 118.13" in section  # the paper's cell, by its label
+    assert "upstream&#39;s test-set selection (compat)" in section or "upstream's test-set selection (compat)" in section
+    assert "158.89 (38)" in section and "173.75 (29)" in section
+    assert "27 %" in section  # (173.75 - 158.89) / (173.75 - 118.13) of the FDE gap
+    assert "R-PECNet, roll-out original_frame" in section and "274.24" in section and "2.32" in section

@@ -77,6 +77,8 @@ from pipeline.config import ReportParams
 from pipeline.models import ModelEntry
 from pipeline.report.beyond import beyond_section
 from pipeline.report import horizons
+from pipeline.report.compat import compat_rows
+from pipeline.report.diagnostics import TITLE as DIAGNOSTICS_TITLE, diagnostics_from_store
 from pipeline.report.claims import claims_section
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)
@@ -587,6 +589,28 @@ def paper_long_term_points(paper: Mapping) -> dict[str, float]:
     """Table 3's SDD ADE at t_f = 30 s, K_a = 1 per model: the only published horizon points."""
     return {c["model"]: c["ade"] for c in paper["sdd_long"]["columns"]
             if c["dataset"] == "sdd" and c["k_a"] == 1}
+
+
+def paper_long_term_cells(paper: Mapping) -> dict[str, dict[str, float]]:
+    """Table 3's SDD ADE and FDE at t_f = 30 s, K_a = 1, per model."""
+    return {c["model"]: {"label": c["label"], "ade": c["ade"], "fde": c["fde"]}
+            for c in paper["sdd_long"]["columns"]
+            if c["dataset"] == "sdd" and c["k_a"] == 1}
+
+
+def diagnostics_section(store: MetricsStore, paper: Mapping) -> dict[str, Any]:
+    """What brackets Table 3 (t_f = 30 s), never in place of its headline: every model at K = 1
+    beside K = 20, R-PECNet's compounding roll-out (`pipeline.report.diagnostics`) and PECNet's
+    epochs selected on the test set as upstream does (`pipeline.report.compat`), with the paper's
+    cells beside them."""
+    cells = paper_long_term_cells(paper)
+    selection = store.record("pecnet_test_selection.json")
+    return {"title": DIAGNOSTICS_TITLE, "t_f": LONG_TERM_TF, "paper": cells,
+            "rows": diagnostics_from_store(store, LONG_TERM_TF),
+            "compat": compat_rows(None if isinstance(selection, Absent) else selection,
+                                  {LONG_TERM_TF: cells["pecnet"]} if "pecnet" in cells else None),
+            "compat_absent": selection if isinstance(selection, Absent) else None,
+            "compat_source": store.where("pecnet_test_selection.json")}
 
 
 def paper_ka_points(paper: Mapping) -> list[tuple[int, float]]:
@@ -1342,6 +1366,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         "summaries": [summarize(t) for t in tables],
         "claims": claims_section(store, paper),
         "tables": tables,
+        "diagnostics": diagnostics_section(store, paper),
         **figures,
         "beyond": beyond_section(store, LONG_TERM_TF, horizon_models(registered),
                                  model_colours(registered), slot),
