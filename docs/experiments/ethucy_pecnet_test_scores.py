@@ -83,8 +83,9 @@ def main() -> None:
                     raise ValueError(f"{args.stored / fold}: windows differ from the test split")
             fold_scores = protocols([drawn.samples for drawn in by_round.values()], bench.truth)
         scores[fold] = {"k": k, "n_windows": len(bench.test), **fold_scores}
-        print(f"{fold}: K = {k} ours {fold_scores['ade']:.3f} / {fold_scores['fde']:.3f} m, "
-              f"own {fold_scores['ade_best_endpoint']:.3f} / {fold_scores['fde']:.3f} m", flush=True)
+        ours = f"{fold_scores['ade']:.3f} / {fold_scores['fde']:.3f}"
+        own = f"{fold_scores['ade_best_endpoint']:.3f} / {fold_scores['fde']:.3f}"
+        print(f"{fold}: K = {k} ours {ours} m, own {own} m", flush=True)
     if len(scores) == len(FOLDS):
         scores["average"] = {key: float(np.mean([scores[f][key] for f in FOLDS]))
                              for key in ("ade", "fde", "ade_best_endpoint")}
