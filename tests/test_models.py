@@ -409,7 +409,7 @@ def test_a_toy_model_registered_in_a_copy_of_the_repo_reaches_the_report(tmp_pat
     (repo / "data/ynet_predictions").mkdir(parents=True)
     (repo / "data/ynet_predictions/qualitative.npz").write_bytes(b"")
     for folder in ("reports/figures/segmentation/predictions", "reports/figures/animations",
-                   ):
+                   "reports/figures/horizons"):
         (repo / folder).mkdir(parents=True, exist_ok=True)
     for rel in ("metrics/baseline_seed_spread.json", "metrics/beyond/short_term.json"):
         (repo / rel).parent.mkdir(parents=True, exist_ok=True)
