@@ -315,7 +315,8 @@ def test_report_rows_of_an_empty_record():
     assert report.section({}) == {
         "rows": [], "one_population": {"horizon": None, "windows": None, "rows": []},
         "findings": {"per_horizon_grows": None, "one_population_grows": None,
-                     "own_models_grow": None, "fastest": None, "slowest": None, "leak_total": None},
+                     "own_models_grow": None, "fastest": None, "slowest": None, "leak_total": None,
+                     "goal_spread_px": None},
         "leak_total": None, "figures": []}
 
 
@@ -343,9 +344,17 @@ def test_findings_read_the_plateau_off_the_record():
     assert found["own_models_grow"] is True
     assert found["fastest"] == (22.7, 30) and found["slowest"] == (4.1, 40)
     assert found["leak_total"] == 0
+    assert found["goal_spread_px"] is None  # no goal spreads in this record
     assert report.section(record)["figures"] == ["curves.png"]
 
 
 def test_figure_colours_are_the_report_s():
     from pipeline.report.page import MODEL_COLOURS
     assert MODEL_COLOURS.items() <= report.COLOURS.items()
+
+
+def test_goal_spread_span_counts_only_the_release_horizon_and_beyond():
+    def horizon(spread):
+        return {"data": {"windows": 1}, "models": {"ynet": {"ade": 1.0, "endpoints": {"spread_px": {"median": spread}}}}}
+    record = {"per_horizon": {"tf20": horizon(400.0), "tf30": horizon(537.0), "tf60": horizon(602.0)}}
+    assert report.findings(record)["goal_spread_px"] == (537.0, 602.0)

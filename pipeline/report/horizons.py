@@ -30,6 +30,7 @@ COLOURS = {"ynet": "#d62728", "pecnet": "#1f77b4", "rpecnet": "#9467bd", "sgan":
 LABELS = {"ynet": "Y-net", "pecnet": "PECNet", "rpecnet": "R-PECNet", "sgan": "S-GAN",
           "constant_velocity": "Constant velocity"}
 SUBJECT = "ynet"
+RELEASE_HORIZON = 30  # s: the authors' released windows' horizon, the main Y-net's
 FIGURES = {"curves": "curves.png", "model": "model.png"}
 
 
@@ -115,7 +116,15 @@ def findings(record: Mapping[str, Any]) -> dict[str, Any]:
         "fastest": max(speeds) if speeds else None,   # (median px/s, t_f)
         "slowest": min(speeds) if speeds else None,
         "leak_total": _get(record, "leak_check", "total"),
+        # (smallest, largest) median spread of Y-net's K goals from the release horizon on (px)
+        "goal_spread_px": _span([r["ynet_goal_spread_px"] for r in rows
+                                 if r["t_f"] >= RELEASE_HORIZON]),
     }
+
+
+def _span(values: list[Any]) -> tuple[float, float] | None:
+    numbers = [v for v in values if isinstance(v, (int, float))]
+    return (min(numbers), max(numbers)) if numbers else None
 
 
 def section(record: Mapping[str, Any]) -> dict[str, Any]:

@@ -1308,7 +1308,7 @@ def horizon_analysis_section(store: MetricsStore, folder: Path | None,
     figures = [{"src": rel_src(folder / name, html_dir), "found": (folder / name).is_file()}
                for name in content["figures"]] if folder is not None else []
     return {"absent": None, "source": store.where("horizon_analysis.json"), **content,
-            "figures": figures}
+            "figures": figures, "labels": horizons.LABELS}
 
 
 def data_section(store: MetricsStore, scene_counts: Path) -> dict[str, Any]:
