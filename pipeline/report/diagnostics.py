@@ -20,7 +20,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, is_number
+from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, dig, is_number
 
 TITLE = "Table 3 bracketed: diagnostics"
 LONG_TERM_FILE = "beyond/long_term.json"  # relative to the metrics folder
@@ -53,15 +53,6 @@ def ratio(ade: Measured | Absent, fde: Measured | Absent) -> float | None:
     if isinstance(ade, Measured) and isinstance(fde, Measured) and ade.mean > 0:
         return fde.mean / ade.mean
     return None
-
-
-def get(node: Any, *keys: str) -> Any:
-    """node[k1][k2]... or None where a level is missing."""
-    for key in keys:
-        if not isinstance(node, Mapping) or key not in node:
-            return None
-        node = node[key]
-    return node
 
 
 def usable(record: Any, source: str, needs: str) -> Mapping[str, Any] | Absent:
@@ -130,10 +121,10 @@ def rollout_row(record: Mapping[str, Any] | Absent, t_f: int, label: str, source
         return DiagnosticRow(ROLLOUT_MODEL, f"{label}, compounding roll-out", horizon, DIAGNOSTIC,
                              why, why, None)
     chosen, where = node.get("chosen"), f"{source}: horizons.{horizon}.test"
-    ade, fde = (as_measured(get(node, "test", k), 1, f"{where}.{k}") for k in ("ade", "fde"))
-    val = get(node, "choice", "variants", str(chosen), "fde_over_ade")
+    ade, fde = (as_measured(dig(node, "test", k), 1, f"{where}.{k}") for k in ("ade", "fde"))
+    val = dig(node, "choice", "variants", str(chosen), "fde_over_ade")
     target = record.get("target_fde_over_ade")
-    split = get(node, "choice", "split") or "val"
+    split = dig(node, "choice", "split") or "val"
     note = (f"chosen on {split}: FDE / ADE {val:.2f}" if is_number(val)
             else f"no {split} FDE / ADE recorded for {chosen}")
     if is_number(target):

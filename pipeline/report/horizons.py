@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from pipeline.io import write_with
+from pipeline.report.lookups import dig
 
 # Colours and labels of the report's long-term figures (pipeline.report.page MODEL_COLOURS and the
 # models registry's constant velocity): a model keeps its colour across the report.
@@ -38,15 +39,6 @@ def _t(name: str) -> int:
     return int(name.removeprefix("tf"))
 
 
-def _get(node: Any, *keys: str) -> Any:
-    """node[k1][k2]... or None where a level is missing."""
-    for key in keys:
-        if not isinstance(node, Mapping) or key not in node:
-            return None
-        node = node[key]
-    return node
-
-
 # ---------------------------------------------------------------------------------------------
 # The section's rows
 
@@ -58,20 +50,20 @@ def horizon_rows(record: Mapping[str, Any]) -> list[dict[str, Any]]:
         models = row.get("models") or {}
         rows.append({
             "t_f": _t(name),
-            "test_windows": _get(row, "data", "windows"),
-            "raw": (_get(row, "data", "sources") or {}).get("raw", 0),
-            "release_chain": (_get(row, "data", "sources") or {}).get("release_chain", 0),
-            "release": (_get(row, "data", "sources") or {}).get("release", 0),
-            "median_speed_px_s": _get(row, "data", "speed_px_s", "median"),
-            "standing_share": _get(row, "data", "standing_share"),
-            "cv_ade": _get(models, "constant_velocity", "ade"),
-            "cv_fde": _get(models, "constant_velocity", "fde"),
-            "straight_to_goal_ade": _get(row, "straight_to_goal", "ade"),
-            "ynet_ade": _get(models, SUBJECT, "ade"),
-            "ynet_fde": _get(models, SUBJECT, "fde"),
-            "ynet_fde_over_ade": _get(models, SUBJECT, "fde_over_ade"),
-            "ynet_goal_spread_px": _get(models, SUBJECT, "endpoints", "spread_px", "median"),
-            "ynet_not_run": _get(models, SUBJECT, "not_run"),
+            "test_windows": dig(row, "data", "windows"),
+            "raw": (dig(row, "data", "sources") or {}).get("raw", 0),
+            "release_chain": (dig(row, "data", "sources") or {}).get("release_chain", 0),
+            "release": (dig(row, "data", "sources") or {}).get("release", 0),
+            "median_speed_px_s": dig(row, "data", "speed_px_s", "median"),
+            "standing_share": dig(row, "data", "standing_share"),
+            "cv_ade": dig(models, "constant_velocity", "ade"),
+            "cv_fde": dig(models, "constant_velocity", "fde"),
+            "straight_to_goal_ade": dig(row, "straight_to_goal", "ade"),
+            "ynet_ade": dig(models, SUBJECT, "ade"),
+            "ynet_fde": dig(models, SUBJECT, "fde"),
+            "ynet_fde_over_ade": dig(models, SUBJECT, "fde_over_ade"),
+            "ynet_goal_spread_px": dig(models, SUBJECT, "endpoints", "spread_px", "median"),
+            "ynet_not_run": dig(models, SUBJECT, "not_run"),
         })
     return sorted(rows, key=lambda r: r["t_f"])
 
@@ -81,10 +73,10 @@ def one_population_rows(record: Mapping[str, Any]) -> list[dict[str, Any]]:
     position at t, each stored longest-horizon model over its first t steps
     (`<model>_ade` / `<model>_fde`) and the own-horizon models (`own_<model>_ade` / `_fde`)."""
     rows = []
-    for name, row in (_get(record, "one_population", "per_horizon") or {}).items():
+    for name, row in (dig(record, "one_population", "per_horizon") or {}).items():
         out: dict[str, Any] = {"t_f": _t(name),
-                               "straight_to_goal_ade": _get(row, "straight_to_goal", "ade"),
-                               "median_speed_px_s": _get(row, "speed_px_s", "median")}
+                               "straight_to_goal_ade": dig(row, "straight_to_goal", "ade"),
+                               "median_speed_px_s": dig(row, "speed_px_s", "median")}
         for model, scores in (row.get("longest_predictions_truncated") or {}).items():
             out[f"{model}_ade"], out[f"{model}_fde"] = scores.get("ade"), scores.get("fde")
         for model, scores in (row.get("own_horizon_models") or {}).items():
@@ -115,7 +107,7 @@ def findings(record: Mapping[str, Any]) -> dict[str, Any]:
         "own_models_grow": grows([r.get(f"own_{SUBJECT}_ade") for r in population]),
         "fastest": max(speeds) if speeds else None,   # (median px/s, t_f)
         "slowest": min(speeds) if speeds else None,
-        "leak_total": _get(record, "leak_check", "total"),
+        "leak_total": dig(record, "leak_check", "total"),
         # (smallest, largest) median spread of Y-net's K goals from the release horizon on (px)
         "goal_spread_px": _span([r["ynet_goal_spread_px"] for r in rows
                                  if r["t_f"] >= RELEASE_HORIZON]),
@@ -136,7 +128,7 @@ def section(record: Mapping[str, Any]) -> dict[str, Any]:
                                "windows": population.get("windows"),
                                "rows": one_population_rows(record)},
             "findings": findings(record),
-            "leak_total": _get(record, "leak_check", "total"),
+            "leak_total": dig(record, "leak_check", "total"),
             "figures": [Path(p).name for p in (record.get("figures") or {}).values()]}
 
 
@@ -157,7 +149,7 @@ def _save(fig, path: Path) -> None:
 
 def _series(rows: Mapping[str, Any], *keys: str) -> tuple[list[int], list[float]]:
     """(t_f, value) of every horizon (`tf<t>` -> node) where node[keys...] is a number."""
-    points = sorted((_t(name), _get(node, *keys)) for name, node in rows.items())
+    points = sorted((_t(name), dig(node, *keys)) for name, node in rows.items())
     points = [(t, v) for t, v in points if isinstance(v, (int, float))]
     return [t for t, _ in points], [v for _, v in points]
 
@@ -192,7 +184,7 @@ def plot_curves(record: Mapping[str, Any], path: Path) -> None:
             top.plot(xs, ys, "k:", marker=".", label="straight line to the true goal (FDE 0)")
             xs, ys = _series(population["per_horizon"], "straight_to_goal", "ade")
             bottom.plot(xs, ys, "k:", marker=".", label="straight line to the true goal (FDE 0)")
-        counts = ", ".join(f"{_t(n)}: {_get(r, 'data', 'windows')}" for n, r in per_horizon.items())
+        counts = ", ".join(f"{_t(n)}: {dig(r, 'data', 'windows')}" for n, r in per_horizon.items())
         top.set_title(f"{metric.upper()}, each horizon on its own test windows", fontsize=10)
         bottom.set_title(f"{metric.upper()}, one population: the {population['windows']} test "
                          f"windows of {population['horizon']} s, truncated at t", fontsize=10)
@@ -277,7 +269,7 @@ def plot_model(record: Mapping[str, Any], path: Path) -> None:
     markers = iter("os^Dv<>")
     top = 0.0
     for name, row in per_horizon.items():
-        errors = _get(row, "models", SUBJECT, "per_window")
+        errors = dig(row, "models", SUBJECT, "per_window")
         if not errors:
             continue
         ax.scatter(errors["ade"], errors["fde"], s=14, alpha=0.6, marker=next(markers),
@@ -325,4 +317,4 @@ def print_summary(record: Mapping[str, Any]) -> None:
         cells = "  ".join(f"{k[:-4]} {f(r[k], 5)}/{f(r[k[:-4] + '_fde'], 5)}"
                           for k in r if k.endswith("_ade") and k != "straight_to_goal_ade")
         print(f"{r['t_f']:4d} line {f(r['straight_to_goal_ade'], 5)}  {cells}")
-    print(f"leak check: {_get(record, 'leak_check', 'total')} overlap(s)")
+    print(f"leak check: {dig(record, 'leak_check', 'total')} overlap(s)")

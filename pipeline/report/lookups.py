@@ -72,6 +72,15 @@ def is_number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
+def dig(node: Any, *keys: str) -> Any:
+    """node[k1][k2]... or None where a level is missing (a record read as far as it goes)."""
+    for key in keys:
+        if not isinstance(node, Mapping) or key not in node:
+            return None
+        node = node[key]
+    return node
+
+
 def as_measured(node: Any, rounds: Any, source: str, note: str = "") -> Measured | Absent:
     """A metric node -> `Measured`: a number (no spread) or {"mean", "std"} over rounds. The std
     of a single round (0 by definition) is no measured spread and is dropped."""
