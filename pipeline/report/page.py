@@ -78,7 +78,7 @@ from pipeline.models import ModelEntry
 from pipeline.report.beyond import beyond_section
 from pipeline.report import horizons
 from pipeline.report.compat import compat_rows
-from pipeline.report.diagnostics import TITLE as DIAGNOSTICS_TITLE, diagnostics_from_store
+from pipeline.report.diagnostics import HEADLINE, TITLE as DIAGNOSTICS_TITLE, diagnostics_from_store
 from pipeline.report.claims import claims_section
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      load_metrics, lookup, lookup_grid)
@@ -605,7 +605,7 @@ def diagnostics_section(store: MetricsStore, paper: Mapping) -> dict[str, Any]:
     cells beside them."""
     cells = paper_long_term_cells(paper)
     selection = store.record("pecnet_test_selection.json")
-    return {"title": DIAGNOSTICS_TITLE, "t_f": LONG_TERM_TF, "paper": cells,
+    return {"title": DIAGNOSTICS_TITLE, "t_f": LONG_TERM_TF, "paper": cells, "headline": HEADLINE,
             "rows": diagnostics_from_store(store, LONG_TERM_TF),
             "compat": compat_rows(None if isinstance(selection, Absent) else selection,
                                   {LONG_TERM_TF: cells["pecnet"]} if "pecnet" in cells else None),
