@@ -253,6 +253,70 @@ def test_the_cause_of_a_difference(headline, own, seeds, source, verdict):
         assert "90.00-110.00" in why.detail
 
 
+@pytest.mark.parametrize("headline, own, selected, source, verdict, detail", [
+    (0.50, 0.45, 0.15, QUOTED, "protocol", "only with epochs selected on the test set"),
+    (0.50, 0.45, 0.25, QUOTED, "unknown", "+25.0 % with epochs selected on the test set"),
+    (0.50, None, 0.15, NOTED, "protocol", "compat diagnostic, +15.0 %"),  # before a written note
+    (0.50, 0.45, None, QUOTED, "unknown", "no protocol, seed or source explanation"),
+    (0.10, 0.10, 0.50, QUOTED, "match", ""),  # a match stays one: compat only names a cause
+])
+def test_epochs_selected_on_test_name_a_protocol_cause_only_within_the_band(
+        headline, own, selected, source, verdict, detail):
+    why = provenance.why_differs(100.0, headline, own, 0.20, source, None, selected)
+    assert why.verdict == verdict and detail in why.detail
+
+
+def test_the_test_selected_score_is_read_from_the_compat_record():
+    record = {"epochs": 10, "compat": {"pecnet": {"best_ade": {"value": 0.31, "epoch": 6},
+                                                  "best_fde": {"value": 0.52, "epoch": 8}}}}
+    store = store_of({"short_term/pecnet_test_selection/eth.json": record})
+    endpoint = "pecnet_best_endpoint"
+    found = provenance.test_selected_score(store, "eth", "pecnet", "fde", endpoint)
+    assert isinstance(found, Measured) and found.mean == 0.52
+    assert "epoch 9 of 10" in found.note and "compat" in found.note
+    assert provenance.test_selected_score(store, "eth", "sgan", "fde", endpoint) is None  # not its loop
+    assert provenance.test_selected_score(store, "hotel", "pecnet", "ade", endpoint) is None  # no file
+    assert provenance.test_selected_score(store, "eth", "pecnet", "ade", "sgan_sequence") is None
+    off = store_of({"short_term/pecnet_test_selection/eth.json": {"not_run_reason": "switch off"}})
+    assert provenance.test_selected_score(off, "eth", "pecnet", "ade", endpoint) is None
+    broken = store_of({"short_term/pecnet_test_selection/eth.json": {"compat": {}}})
+    missing = provenance.test_selected_score(broken, "eth", "pecnet", "ade", endpoint)
+    assert isinstance(missing, Absent) and "compat.pecnet.best_ade" in missing.reason
+    # long-term: the horizon's entry, under the cell's protocol (ours: the "headline" scores)
+    long_term = store_of({"pecnet_test_selection.json": {"per_horizon": {"tf30": {
+        "epochs": 40, "compat": {"headline": {"best_fde": {"value": 158.9, "epoch": 38}},
+                                 "pecnet": {"best_fde": {"value": 1.0, "epoch": 0}}}}}}})
+    at_30 = provenance.test_selected_score(long_term, "tf30", "pecnet", "fde", "independent_min")
+    assert at_30.mean == 158.9 and "epoch 39 of 40" in at_30.note
+    assert provenance.test_selected_score(long_term, "tf20", "pecnet", "fde", "independent_min") is None
+
+
+def test_table_2_names_test_selection_as_the_cause_where_it_closes_the_gap(project):
+    """PECNet's hotel ADE: ours 0.5 (headline) against the paper's 0.18, far under every protocol
+    scored from stored predictions; with epochs selected on test 0.2 (+11 %), so the cause is
+    protocol; zara1's compat 0.4 stays far and the cell unknown. The AVG's compat is the mean of
+    the five folds' only when all five have one."""
+    files = data_metrics() | model_metrics()
+    for scene in ETHUCY_SCENES:
+        files[f"short_term/ethucy_{scene}.json"]["models"]["pecnet"] = {
+            "ade": {"mean": 0.5, "std": 0.0}, "fde": {"mean": 1.0, "std": 0.0}}
+    files["beyond/short_term.json"] = scores(False)
+    for scene, ade in (("hotel", 0.2), ("zara1", 0.4)):
+        files[f"short_term/pecnet_test_selection/{scene}.json"] = {
+            "epochs": 10, "compat": {"pecnet": {"best_ade": {"value": ade, "epoch": 3},
+                                                "best_fde": {"value": 0.9, "epoch": 4}}}}
+    write_metrics(project / "metrics", files)
+    store = load_metrics(project / "metrics", "metrics")
+    table = {t.key: t for t in report.build_tables(RAW, store, BANDS)}["eth_ucy"]
+    pecnet = column_cells(table, "PECNet", "ADE")
+    assert pecnet["HOTEL"].test_selected.mean == 0.2
+    assert pecnet["HOTEL"].why.verdict == "protocol"
+    assert "epochs selected on the test set" in pecnet["HOTEL"].why.detail
+    assert pecnet["ZARA1"].why.verdict == "unknown"
+    assert "+81.8 % with epochs selected on the test set" in pecnet["ZARA1"].why.detail
+    assert pecnet["ETH"].test_selected is None and pecnet["AVG"].test_selected is None
+
+
 def test_seed_range_needs_two_training_seeds():
     record = {"entries": [
         {"model": "pecnet", "horizon": 30, "seeds": [0, 1, 2],

@@ -8,6 +8,7 @@ reused here.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -117,3 +118,77 @@ def test_a_bad_value_is_refused_by_the_models_config():
     params["short_term_baselines"] = {"cpu": {"sgan": {"ethucy": {"coord_scale": -1.0}}}}
     with pytest.raises(ValueError, match="coord_scale must be > 0"):
         baseline_config("sgan", "eth", params, 1)
+
+
+def test_test_selection_retrains_the_headline_pecnet_and_scores_its_first_round(project):  # noqa: F811
+    """Stage `short_term_pecnet_test_selection`: PECNet retrained on eth (metres) as the headline
+    trained it, its kept epoch's test numbers the headline's first round to the bit, upstream's
+    selection on test the lowest per-epoch test value; the stage's checkpoints untouched."""
+    from pipeline.stages import short_term_pecnet_test_selection
+
+    folder = project / "checkpoints" / "eth_pecnet"
+    before = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+    train = project / "metrics" / "short_term" / "train" / "eth_pecnet.json"
+    run = project / "metrics" / "short_term" / "runs" / "eth_pecnet.json"
+    out = project / "compat" / "eth.json"
+    cwd = Path.cwd()
+    try:
+        os.chdir(project)  # the stage reads ./params.yaml
+        short_term_pecnet_test_selection.main([
+            "--dataset", "eth", "--windows", str(project / "data" / "short_term"),
+            "--training-facts", str(train), "--run-metrics", str(run), "--out", str(out)])
+    finally:
+        os.chdir(cwd)
+    record = json.loads(out.read_text())
+    assert "never a headline" in record["diagnostic"] and record["unit"] == "m"
+    assert record["training_reproduced"]["same"] is True
+    kept = record["validation_selected"]
+    scored = json.loads(run.read_text())
+    assert kept["test"]["headline"] == {m: scored["k20"]["per_round"][0][m] for m in ("ade", "fde")}
+    assert [e["epoch"] for e in record["per_epoch"]] == list(range(record["epochs"]))
+    for protocol in ("headline", "pecnet"):
+        for metric in ("ade", "fde"):
+            best = record["compat"][protocol][f"best_{metric}"]
+            assert best["value"] == min(e["test"][protocol][metric] for e in record["per_epoch"])
+            assert best["value"] <= kept["test"][protocol][metric]
+    assert {p.name: p.stat().st_mtime_ns for p in folder.iterdir()} == before
+
+
+def test_test_selection_on_a_fold_the_switch_leaves_off_records_why(project):  # noqa: F811
+    from pipeline.stages import short_term_pecnet_test_selection
+
+    out = project / "compat" / "hotel.json"
+    cwd = Path.cwd()
+    try:
+        os.chdir(project)  # the switch (params.yaml) lists eth only
+        short_term_pecnet_test_selection.main([
+            "--dataset", "hotel", "--windows", str(project / "data" / "short_term"),
+            "--training-facts", "no_such_file.json", "--run-metrics", "no_such_file.json",
+            "--out", str(out)])
+    finally:
+        os.chdir(cwd)
+    record = json.loads(out.read_text())
+    assert record["not_run_reason"] == ("compat switch off for hotel "
+                                        "(short_term_pecnet_test_selection.folds in params.yaml)")
+    assert "compat" not in record
+
+
+@pytest.mark.parametrize("folds, message", [(["eth", "sdd"], "not ETH/UCY folds"),
+                                            (["eth", "eth"], "folds repeat")])
+def test_the_switch_takes_only_ethucy_folds_once(folds, message):
+    from pipeline.config import ShortTermPecnetTestSelectionParams, from_dict
+
+    with pytest.raises(ValueError, match=message):
+        from_dict(ShortTermPecnetTestSelectionParams, {"folds": folds}, "params.yaml:x")
+
+
+def test_test_selection_refuses_headline_files_it_cannot_read(tmp_path):
+    from pipeline.runners.short_term_test_selection import headline_facts
+
+    (tmp_path / "train.json").write_text(json.dumps({"train": {"best_epoch": 3}}))
+    (tmp_path / "run.json").write_text(json.dumps({"ks": [20], "k20": {"per_round": []}}))
+    with pytest.raises(ValueError, match="train.json: no train.best_epoch / best_val_ade_px"):
+        headline_facts(tmp_path / "train.json", tmp_path / "run.json")
+    (tmp_path / "train.json").write_text(json.dumps({"train": {"best_epoch": 3, "best_val_ade_px": 0.2}}))
+    with pytest.raises(ValueError, match="run.json: no first round's test ADE / FDE"):
+        headline_facts(tmp_path / "train.json", tmp_path / "run.json")

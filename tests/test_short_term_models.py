@@ -152,7 +152,8 @@ def tiny_params() -> dict:
     return {"profile": "cpu", "short_term": real["short_term"], "runtime": real["runtime"],
             "train_baseline": {"seed": 0, "threads": 1}, "ynet": both(ynet),
             "short_term_models": both(short), "sgan": both(sgan), "pecnet": both(pecnet),
-            "short_term_baselines": real["short_term_baselines"]}
+            "short_term_baselines": real["short_term_baselines"],
+            "short_term_pecnet_test_selection": {"folds": ["eth"]}}
 
 
 @pytest.fixture(scope="module")

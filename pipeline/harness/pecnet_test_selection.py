@@ -1,5 +1,6 @@
 """A labelled compat diagnostic, never a headline number: how far upstream PECNet's test-set epoch
-selection moves its scores (stage `pecnet_test_selection`).
+selection moves its scores (stages `pecnet_test_selection`, long-term, and
+`short_term_pecnet_test_selection`, ETH/UCY: `pipeline.runners.short_term_test_selection`).
 
 Upstream's training loop scores the TEST set after every epoch and reports the lowest test ADE and,
 separately, the lowest test FDE seen over all epochs (each possibly from a different epoch). Our
@@ -55,11 +56,23 @@ LABEL = ("compat diagnostic: upstream selects epochs on the TEST set (best test 
 
 def epoch_test_scores(pred: Any, truth: Any) -> dict[str, dict[str, float]]:
     """{protocol: {"ade", "fde"}}: means over windows of one sampling `pred` (N, K, n_f, 2) of
-    `truth` (N, n_f, 2), pixels, under each of `PROTOCOLS`."""
+    `truth` (N, n_f, 2), in their unit (pixels, metres), under each of `PROTOCOLS`."""
     independent = min_ade_fde(pred, truth)  # (N,) each
     fde = float(independent["fde"].mean())
     return {"headline": {"ade": float(independent["ade"].mean()), "fde": fde},
             "pecnet": {"ade": float(best_endpoint_ade(pred, truth).mean()), "fde": fde}}
+
+
+def summary_line(kept: Mapping[str, Any], compat: Mapping[str, Any], protocol: str,
+                 decimals: int = 2, unit: str = "") -> str:
+    """One protocol's line of a stage's log: the epoch kept on validation with its test ADE / FDE,
+    then upstream's selection on test (`compat_summary`'s parts)."""
+    best_ade, best_fde = compat[protocol]["best_ade"], compat[protocol]["best_fde"]
+    unit = f" {unit}" if unit else ""
+    return (f"{protocol}: epoch {kept['epoch']} kept on val: {kept['test'][protocol]['ade']:.{decimals}f}"
+            f" / {kept['test'][protocol]['fde']:.{decimals}f}{unit}; compat (selected on test): ADE "
+            f"{best_ade['value']:.{decimals}f} @ {best_ade['epoch']}, FDE "
+            f"{best_fde['value']:.{decimals}f} @ {best_fde['epoch']}")
 
 
 def check_epochs(epochs: Sequence[Mapping[str, Any]]) -> None:
@@ -111,11 +124,20 @@ def compat_summary(epochs: Sequence[Mapping[str, Any]], selection: str = "raw") 
 def retrain_scoring_test(arrays: WindowArrays, config: PecnetConfig, seed: int, k: int,
                          test_seed: int, checkpoint_dir: Path, device: torch.device = CPU
                          ) -> tuple[list[dict], Pecnet]:
-    """PECNet fitted on `arrays`' train split (epochs kept on its val split, exactly as
-    `baseline_runs.train`), its test split scored after every epoch (best of `k`, a generator
-    seeded with `test_seed` each time). Returns the per-epoch record (`compat_summary`'s input,
-    with the test sampling's seconds) and the fitted model (its `fit_result`)."""
-    train_set, val_set, test_set = (select_split(arrays, split) for split in ("train", "val", "test"))
+    """`retrain_scoring_splits` on `arrays`' train, val and test splits, as `baseline_runs.train`
+    fits PECNet on a long-term window table."""
+    return retrain_scoring_splits(*(select_split(arrays, split) for split in ("train", "val", "test")),
+                                  config, seed, k, test_seed, checkpoint_dir, device)
+
+
+def retrain_scoring_splits(train_set: WindowArrays, val_set: WindowArrays, test_set: WindowArrays,
+                           config: PecnetConfig, seed: int, k: int, test_seed: int,
+                           checkpoint_dir: Path, device: torch.device = CPU
+                           ) -> tuple[list[dict], Pecnet]:
+    """PECNet fitted on `train_set` (epochs kept on `val_set`), `test_set` scored after every
+    epoch (best of `k`, a generator seeded with `test_seed` each time), in the windows' own unit.
+    Returns the per-epoch record (`compat_summary`'s input, with the test sampling's seconds) and
+    the fitted model (its `fit_result`)."""
     if len(test_set) == 0:
         raise ValueError("no test windows to score")
     scores: dict[int, dict] = {}

@@ -86,7 +86,8 @@ from pipeline.report.provenance import (PROTOCOL_KEYS, PROTOCOL_LABELS, PROTOCOL
                                         SEED_SPREAD_FILE, CellSource, SourceNote, Why,
                                         difference_lines, glance_counts, load_paper_values,
                                         long_term_score, mean_of, seed_range, short_term_score,
-                                        source_notes, under_protocol, why_differs, with_provenance)
+                                        source_notes, test_selected_score, under_protocol,
+                                        why_differs, with_provenance)
 from pipeline.io import atomic_dir, write_text
 from pipeline.data.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
@@ -135,6 +136,7 @@ class Cell:
     why: Why | None = None  # for a compared cell: a match, or the cause of the difference
     name: str = ""  # "PECNet* (K = 20) ADE": how the lists under a table name the cell
     mark: str = ""  # its source's footnote mark: q1, q2 (quoted), a1 (the Y-net authors')
+    test_selected: Measured | Absent | None = None  # compat: upstream's epochs chosen on test
 
     @property
     def kind(self) -> str:
@@ -219,16 +221,21 @@ def compare(paper: float | None, ours: Measured | Absent | None, params: ReportP
 def paper_cell(paper: float | None, ours: Measured | Absent | None, params: ReportParams,
                source: CellSource | None, name: str, own: Measured | Absent | None = None,
                joint: Measured | Absent | None = None,
-               seeds: tuple[float, float, int] | None = None) -> Cell:
+               seeds: tuple[float, float, int] | None = None,
+               test_selected: Measured | Absent | None = None) -> Cell:
     """`compare` on our headline, then under the cell's own protocol (`own`: the difference and
     colour follow it where it was scored) and whether the cell matches or why not (`seeds`: our
-    range over training seeds, where trained)."""
-    cell = replace(compare(paper, ours, params, joint), source=source, name=name)
+    range over training seeds, where trained; `test_selected`: ours with upstream's epochs
+    selected on the test set, a compat diagnostic that only names a cause)."""
+    cell = replace(compare(paper, ours, params, joint), source=source, name=name,
+                   test_selected=test_selected)
     if cell.kind != "measured":
         return cell
     own_diff = relative_difference(own.mean, paper) if isinstance(own, Measured) else None
     diff = cell.diff if own_diff is None else own_diff
-    why = why_differs(paper, cell.diff, own_diff, params.far, source, seeds)
+    selected_diff = (relative_difference(test_selected.mean, paper)
+                     if isinstance(test_selected, Measured) else None)
+    why = why_differs(paper, cell.diff, own_diff, params.far, source, seeds, selected_diff)
     return replace(cell, own=own, diff=diff, band=band(diff, params), why=why)
 
 
@@ -295,7 +302,9 @@ def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportPar
     ours = Measured(float(np.mean(means)), None, None, "mean of the scene means",
                     f"mean of {len(means)} scenes")
     own = mean_of([cell.own for cell in scene_cells], "mean of the scenes' values")
-    return paper_cell(paper, ours, params, source, name, own)
+    selected = mean_of([cell.test_selected for cell in scene_cells],
+                       "mean of the scenes' test-selected values (compat)")
+    return paper_cell(paper, ours, params, source, name, own, test_selected=selected)
 
 
 def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
@@ -312,9 +321,11 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
                 source = m["cells"][metric][scene]
                 own = under_protocol(source.protocol, metric, lambda key, s=scene, mo=m["model"]:
                                      short_term_score(store, s, mo, key, 20))
+                selected = test_selected_score(store, scene, m["model"], metric, source.protocol)
                 per_scene[scene].append(paper_cell(
                     m[metric][scene], ours, params, source,
-                    f"{m['label']} {metric.upper()} {spec['scene_labels'][scene]}", own))
+                    f"{m['label']} {metric.upper()} {spec['scene_labels'][scene]}", own,
+                    test_selected=selected))
     rows = [Row(spec["scene_labels"][s], tuple(cells)) for s, cells in per_scene.items()]
     in_column_order = [(m, metric) for m in spec["models"] for metric in METRICS]
     avg = [average_cell(m[metric].get("avg"), [per_scene[s][i] for s in spec["scenes"]], params,
@@ -324,7 +335,9 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
     return Table("eth_ucy", spec["number"], spec["title"],
                  "K = 20, leave one scene out. Ours: metrics/short_term/ethucy_<scene>.json; "
                  "under a cell's own protocol: metrics/beyond/short_term.json (the stored "
-                 "predictions); our AVG is the mean of our five scene means.",
+                 "predictions); our AVG is the mean of our five scene means. PECNet retrained with "
+                 "upstream's epochs selected on test (compat diagnostic, never shown as ours): "
+                 "metrics/short_term/pecnet_test_selection/<scene>.json.",
                  spec["unit"], 3, tuple(columns), tuple(rows))
 
 
@@ -380,12 +393,14 @@ def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams,
             source = (c.get("cells") or {}).get(metric)  # a registered model has no paper cell
             own = under_protocol(source.protocol, metric, lambda key, c=c: long_term_score(
                 store, c["dataset"], c["model"], c["k_a"], key, LONG_TERM_TF)) if source else None
-            seeds = (seed_range(store, c["model"], LONG_TERM_TF, metric)
-                     if (c["dataset"], c["k_a"]) == ("sdd", 1) else None)
+            sdd = (c["dataset"], c["k_a"]) == ("sdd", 1)
+            seeds = seed_range(store, c["model"], LONG_TERM_TF, metric) if sdd else None
+            selected = (test_selected_score(store, f"tf{LONG_TERM_TF}", c["model"], metric,
+                                            source.protocol) if sdd and source else None)
             cells.append(paper_cell(
                 c[metric], ours, params, source,
                 f"{DATASETS[c['dataset']]} {c['label']} (K_a = {c['k_a']}) {metric.upper()}", own,
-                find_long_term_joint(store, c, metric, profile), seeds))
+                find_long_term_joint(store, c, metric, profile), seeds, selected))
         rows.append(Row(metric.upper(), tuple(cells)))
     columns = tuple(Column(DATASETS[c["dataset"]], c["label"], f"K_a = {c['k_a']}") for c in cols)
     registered = [c["label"] for c in cols if c.get("registered")]

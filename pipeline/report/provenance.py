@@ -9,7 +9,8 @@ Ours under a cell's own protocol comes from the stored-prediction scores (stage
 `score_short_term_predictions`: `beyond/short_term.json`; `score_predictions`:
 `beyond/long_term.json`, `beyond/ind.json`), "not scored" where the key is not there.
 `why_differs` names the cause of a difference beyond the report's `far` band: `protocol` and
-`seed spread` are computed from our metrics; `source` and `budget` only where the yaml gives a
+`seed spread` are computed from our metrics (`protocol` also where only upstream PECNet's epoch
+selection on the test set, retrained as a compat diagnostic, brings ours within it); `source` and `budget` only where the yaml gives a
 note; `unknown` otherwise.
 """
 
@@ -23,7 +24,7 @@ from typing import Any
 
 import yaml
 
-from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, is_number
+from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, dig, is_number
 
 METRICS = ("ade", "fde")
 TABLE_KEYS = ("sdd_short", "eth_ucy", "sdd_long", "ttst")
@@ -55,6 +56,11 @@ SHORT_TERM_SCORES = "beyond/short_term.json"
 LONG_TERM_SCORES = "beyond/long_term.json"
 IND_SCORES = "beyond/ind.json"
 SEED_SPREAD_FILE = "baseline_seed_spread.json"
+# Upstream PECNet's test-set epoch selection, retrained per ETH/UCY fold (a compat diagnostic).
+TEST_SELECTION_FILE = "short_term/pecnet_test_selection/{benchmark}.json"
+LONG_TERM_TEST_SELECTION_FILE = "pecnet_test_selection.json"
+TEST_SELECTED_MODELS = ("pecnet",)
+TEST_SELECTION_PROTOCOLS = {"pecnet_best_endpoint": "pecnet", "independent_min": "headline"}
 
 
 class PaperValuesError(ValueError):
@@ -260,6 +266,35 @@ def short_term_score(store: MetricsStore, benchmark: str, model: str, key: str,
     return stored_score(store, SHORT_TERM_SCORES, path, key, k)
 
 
+def test_selected_score(store: MetricsStore, benchmark: str, model: str, metric: str,
+                        protocol: str) -> Measured | Absent | None:
+    """Ours with upstream PECNet's selection of epochs on the TEST set (a compat diagnostic): the
+    lowest test `metric` over a retrain's epochs under the cell's `protocol`. `benchmark`: an
+    ETH/UCY fold (stage `short_term_pecnet_test_selection`) or `tf<t_f>`, long-term SDD (stage
+    `pecnet_test_selection`). None for a model upstream did not train that way, a protocol the
+    diagnostic does not score, or a benchmark it does not cover."""
+    if benchmark.startswith("tf"):
+        rel, path = LONG_TERM_TEST_SELECTION_FILE, ("per_horizon", benchmark)
+    else:
+        rel, path = TEST_SELECTION_FILE.format(benchmark=benchmark), ()
+    compat_protocol = TEST_SELECTION_PROTOCOLS.get(protocol)
+    if model not in TEST_SELECTED_MODELS or compat_protocol is None or rel not in store.files:
+        return None
+    record = store.record(rel)
+    if isinstance(record, Absent):
+        return record
+    run = dig(record, *path)
+    if run is None or "not_run_reason" in run:  # a fold the compat switch leaves off
+        return None
+    best = dig(run, "compat", compat_protocol, f"best_{metric}")
+    where = ".".join([*path, "compat", compat_protocol, f"best_{metric}"])
+    if not isinstance(best, Mapping) or not is_number(best.get("value")):
+        return Absent(f"{store.where(rel)} has no {where}", "invalid")
+    return Measured(float(best["value"]), None, 1, f"{store.where(rel)}: {where}",
+                    f"epoch {int(best.get('epoch', -1)) + 1} of {run.get('epochs')}, "
+                    "selected on test (compat)")
+
+
 def long_term_score(store: MetricsStore, dataset: str, model: str, k_a: int, key: str,
                     t_f: int) -> Measured | Absent:
     """Table 3's stored score: SDD baselines on the horizon table, Y-net on the release's windows
@@ -309,13 +344,15 @@ def within(diff: float | None, far: float) -> bool:
 
 
 def why_differs(paper: float, headline_diff: float | None, own_diff: float | None, far: float,
-                source: CellSource | None, seeds: tuple[float, float, int] | None = None) -> Why:
+                source: CellSource | None, seeds: tuple[float, float, int] | None = None,
+                test_selected_diff: float | None = None) -> Why:
     """How a cell stands. Where ours is scored under the cell's own protocol, that number decides
     (a headline within `far` does not make a match when the cell's own protocol does not);
     elsewhere the headline does. `match` when the deciding number is within `far` and so is the
     headline; `protocol` when only ours under the cell's own protocol is; otherwise the first
     cause that holds: `seed spread` (the paper's number lies within our range over training
-    seeds), the yaml's note, `unknown`."""
+    seeds), `protocol` where ours with upstream's epochs selected on the test set
+    (`test_selected_diff`, a compat diagnostic) is within `far`, the yaml's note, `unknown`."""
     protocol = source.protocol if source else HEADLINE_PROTOCOL
     own_scored = own_diff is not None and protocol not in (HEADLINE_PROTOCOL, "unknown")
     if within(own_diff if own_scored else headline_diff, far):
@@ -326,12 +363,18 @@ def why_differs(paper: float, headline_diff: float | None, own_diff: float | Non
     if seeds is not None and seeds[0] <= paper <= seeds[1]:
         return Why("seed spread", f"paper {paper:g} within our {seeds[2]} training seeds' range "
                                   f"{seeds[0]:.2f}-{seeds[1]:.2f}")
+    if within(test_selected_diff, far):
+        return Why("protocol", f"within {far:.0%} only with epochs selected on the test set, as "
+                               f"upstream's training loop selects them (compat diagnostic, "
+                               f"{test_selected_diff * 100:+.1f} %)")
     if source is not None and source.differs_because is not None:
         return Why(source.differs_because.cause, source.differs_because.note)
+    selected = ("" if test_selected_diff is None else
+                f"; {test_selected_diff * 100:+.1f} % with epochs selected on the test set (compat)")
     if own_scored and within(headline_diff, far):
         return Why("unknown", f"within {far:.0%} under our headline protocol, "
-                              f"{own_diff * 100:+.1f} % under {PROTOCOL_LABELS[protocol]}")
-    return Why("unknown", "no protocol, seed or source explanation")
+                              f"{own_diff * 100:+.1f} % under {PROTOCOL_LABELS[protocol]}{selected}")
+    return Why("unknown", f"no protocol, seed or source explanation{selected}")
 
 
 def glance_counts(verdicts: list[str]) -> dict[str, int]:

@@ -23,7 +23,7 @@ import tempfile
 from pathlib import Path
 
 from pipeline.config import read_params
-from pipeline.harness.pecnet_test_selection import diagnose
+from pipeline.harness.pecnet_test_selection import diagnose, summary_line
 from pipeline.io import write_json
 
 
@@ -40,11 +40,7 @@ def main(argv: list[str] | None = None) -> None:
     for name, row in record["per_horizon"].items():
         kept, compat = row["validation_selected"], row["compat"]
         for protocol in record["protocols"]:
-            print(f"pecnet_test_selection {name} {protocol}: epoch {kept['epoch']} kept on val: "
-                  f"{kept['test'][protocol]['ade']:.2f} / {kept['test'][protocol]['fde']:.2f}; "
-                  f"compat (selected on test): ADE {compat[protocol]['best_ade']['value']:.2f} "
-                  f"@ {compat[protocol]['best_ade']['epoch']}, FDE "
-                  f"{compat[protocol]['best_fde']['value']:.2f} @ {compat[protocol]['best_fde']['epoch']}")
+            print(f"pecnet_test_selection {name} {summary_line(kept, compat, protocol)}")
         print(f"pecnet_test_selection {name}: train_baseline's epoch reproduced: "
               f"{row['training_reproduced']['same']}")
     write_json(record, args.out)
