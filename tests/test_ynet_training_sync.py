@@ -12,8 +12,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 
-from pipeline.data.ynet_data import (TrainingBatch, agent_crops, augment, distance_maps,
-                                     gaussian_heatmaps, model_input, pad_to_multiple,
+from pipeline.data.ynet_data import (TrainingBatch, agent_crops, augment, model_input,
                                      padded_semantic)
 from pipeline.preemption import NEVER, Preemption, StopRequested
 from pipeline.runners import ynet_training
@@ -22,6 +21,7 @@ from pipeline.runners.ynet_training import (YnetSettings, concat_batches, epoch_
                                             train_epoch)
 from tests.sync_audit import SyncAudit, host_state
 from tests.test_train_batches import MAPS, N_FUTURE, N_PAST, SETTINGS, SIZES, arrays, scenes
+from ynet.heatmaps import distance_maps, gaussian_heatmaps, pad_to_multiple
 from ynet.loss import ynet_loss
 from ynet.model import YNet
 from ynet.segmentation import PAD_CLASS
