@@ -6,11 +6,11 @@ copy to the host (`.cpu()`, `.tolist()`, `.numpy()`), an op whose output size de
 (`nonzero`, a boolean-mask read or write), or an index built from host data (a list or numpy
 array: torch makes a tensor of it on the host and copies it to the GPU, blocking). None of these
 needs a GPU to be seen: `SyncAudit` watches every torch call and every dispatched operator of a
-CPU run and records each such one in `events`, and every operator in `ops` (to compare the work
-of two steps). Operator-level events (scalar reads, `nonzero`, boolean masks) are seen wherever
-they happen; `.cpu()` / `.tolist()` / `.numpy()` and list or numpy indices where our code or
-torch's non-Python code calls them, not inside a torch function written in Python (a torch
-function mode is off while its function runs). A `.to(device)` is not judged (on the CPU it
+CPU run (under `torch.inference_mode` too) and records each such one in `events`, and every
+operator in `ops` (to compare the work of two steps). Operator-level events (scalar reads,
+`nonzero`, boolean masks) are seen wherever they happen; `.cpu()` / `.tolist()` / `.numpy()` and
+list or numpy indices where our code or torch's non-Python code calls them, not inside a torch
+function written in Python (a torch function mode is off while its function runs). A `.to(device)` is not judged (on the CPU it
 cannot tell a copy to the host from one to the device).
 
 Some tensors stay on the host in a CUDA run too (Adam's step counts, unless `capturable`):
@@ -28,7 +28,10 @@ from torch.overrides import TorchFunctionMode
 from torch.utils._python_dispatch import TorchDispatchMode
 from torch.utils._pytree import tree_leaves
 
-SCALAR_READ = torch.ops.aten._local_scalar_dense.default
+# Scalar reads: under `torch.inference_mode` (scoring) `.item()`, `float()` and `bool()` reach the
+# dispatcher as `item` / `is_nonzero`, whose `_local_scalar_dense` is not dispatched again.
+SCALAR_READS = {torch.ops.aten._local_scalar_dense.default, torch.ops.aten.item.default,
+                torch.ops.aten.is_nonzero.default}
 VALUE_SIZED = {torch.ops.aten.nonzero.default, torch.ops.aten.masked_select.default}
 INDEXING = {torch.ops.aten.index.Tensor, torch.ops.aten.index_put_.default,
             torch.ops.aten.index_put.default, torch.ops.aten._index_put_impl_.default}
@@ -80,7 +83,7 @@ class _Operators(TorchDispatchMode):
         inputs = [t for t in tree_leaves((args, kwargs)) if isinstance(t, torch.Tensor)]
         from_host = bool(inputs) and all(audit.on_host(t) for t in inputs)
         audit.ops[str(func)] += 1
-        if func is SCALAR_READ and not from_host:
+        if func in SCALAR_READS and not from_host:
             audit.events.append(("scalar read", str(args[0].dtype)))
         elif func in VALUE_SIZED:
             audit.events.append((str(func), tuple(args[0].shape)))

@@ -29,6 +29,20 @@ def test_each_kind_of_sync_is_counted(name, operation, kind):
     assert [what for what, _ in audit.events] == [kind], name
 
 
+@pytest.mark.parametrize("name, operation", [
+    ("item", lambda: X.sum().item()),
+    ("float", lambda: float(X[0, 1])),
+    ("int", lambda: int(X.max())),
+    ("bool", lambda: bool((X > 3).any())),
+])
+def test_scalar_reads_are_counted_under_inference_mode_too(name, operation):
+    """Scoring runs under `torch.inference_mode`, where these reach the dispatcher as `item` or
+    `is_nonzero` rather than `_local_scalar_dense`: each still counts once."""
+    with SyncAudit() as audit, torch.inference_mode():
+        operation()
+    assert [what for what, _ in audit.events] == ["scalar read"], name
+
+
 def test_device_side_work_is_not_counted_and_every_op_is_listed():
     rows = torch.tensor([0, 2])  # made before: on the device in a CUDA run
     with SyncAudit() as audit:
