@@ -171,6 +171,15 @@ def test_the_default_mode_waits_twice_per_iteration_and_reads_a_size():
     assert audit.events.count(("scalar read", "torch.int64")) == 1  # distinct_points' size
 
 
+def test_encode_selects_the_waypoint_maps_without_a_host_made_index():
+    model, _, x = tiny_model_and_windows(2)
+    with SyncAudit() as audit:
+        encoded = sampling.encode(model, x)
+    assert audit.events == []
+    goal_logits = model.predict_goals(model.encode(x.contiguous(memory_format=torch.channels_last)))
+    assert torch.equal(encoded.waypoint_logits, goal_logits[:, list(model.config.waypoints)])
+
+
 # (c) Where no cluster empties, the same centres as the default mode; repeatable with the seed.
 
 @pytest.mark.parametrize("check_every", [1, 16, 32])

@@ -444,7 +444,8 @@ def encode(model: YNet, scene_and_past: torch.Tensor) -> Encoded:
     with torch.inference_mode():
         features = model.encode(x)
         goal_logits = model.predict_goals(features)  # (B, n_f, H, W)
-        waypoint_logits = goal_logits[:, list(model.config.waypoints)].contiguous()
+        # one slice per waypoint: a list index would be copied to the GPU, waiting for it
+        waypoint_logits = torch.stack([goal_logits[:, i] for i in model.config.waypoints], dim=1)
     return Encoded(features=features, waypoint_logits=waypoint_logits)
 
 
