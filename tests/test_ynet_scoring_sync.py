@@ -1,17 +1,28 @@
-"""TTST without waiting for a GPU: `ynet.sampling.kmeans`' sync-light mode (`check_every`), and
-its default mode bit for bit as it was: the references below are the functions as they were
-before the mode existed.
+"""TTST without waiting for a GPU: `ynet.sampling.kmeans`' sync-light mode (`check_every`), which
+scoring takes on CUDA (`ynet_scoring.kmeans_check_every`), and its default mode, which the CPU
+takes, bit for bit as it was: the references below are the functions as they were before the
+mode existed.
 
 The audit (`tests/sync_audit.py`) runs on the CPU: what it counts would each block the host on
 CUDA, so both modes are checked here without a GPU.
 """
 
+from collections import Counter
+
+import numpy as np
 import pytest
 import torch
 
+from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.runners import ynet_scoring
+from pipeline.runners.ynet_scoring import (CUDA_KMEANS_CHECK_EVERY, Sampling, kmeans_check_every,
+                                           predict_samplings, sampling_options)
+from pipeline.runners.ynet_training import YnetSettings
 from tests.sync_audit import SyncAudit
+from tests.test_no_fixed_device import N_FUTURE, N_PAST, SETTINGS, scenes
 from tests.test_ynet_sampling import gen, tiny_model_and_windows, two_mode_logits
 from ynet import sampling
+from ynet.model import YNet
 from ynet.sampling import (SamplingOptions, distinct_points, goal_masses, kmeans, nearest_centre,
                            predict, sample_positions, softargmax, ttst)
 
@@ -244,3 +255,56 @@ def test_weight_0_padding_changes_no_centre(check_every):
 def test_check_every_must_be_positive():
     with pytest.raises(ValueError, match="check_every"):
         kmeans(peaky_points(), 4, gen(0), check_every=0)
+
+
+# The scoring runner: the mode follows the device.
+
+def test_the_runner_takes_the_exact_mode_on_the_cpu_and_the_sync_light_one_on_cuda():
+    assert kmeans_check_every(torch.device("cpu")) is None
+    assert kmeans_check_every(torch.device("cuda", 0)) == CUDA_KMEANS_CHECK_EVERY == 16
+
+
+@pytest.fixture(params=[0, 32], ids=["whole scene", "crops"])
+def runner(request):
+    """A tiny model, 5 windows in batches of 2 and 4 samplings of them (K_a 1 and 2, 2 seeds):
+    `predict_samplings`' arguments."""
+    torch.manual_seed(0)
+    settings = YnetSettings(**SETTINGS, crop=request.param, crop_lead_steps=1.0)
+    model = YNet(settings.model_config(N_PAST, N_FUTURE)).eval()
+    test_scenes, arrays = scenes(5, settings.resize)
+    samplings = [Sampling(sampling_options(3, k_a, TtstParams(), CwsParams(), True, True), seed)
+                 for k_a in (1, 2) for seed in (0, 1)]
+    return model, test_scenes, settings, samplings, EvalParams(k_e=3, batch_size=2), len(arrays)
+
+
+def run(model, test_scenes, settings, samplings, params, n):
+    sampled, _ = predict_samplings(model, test_scenes, settings, samplings, params, n, "test",
+                                   settings.crop, settings.crop_lead_steps)
+    return sampled
+
+
+def test_the_runner_on_the_cpu_scores_as_the_previous_ttst(runner, monkeypatch):
+    ours = run(*runner)
+    monkeypatch.setattr(sampling, "ttst", reference_ttst)
+    for mine, theirs in zip(ours, run(*runner)):
+        for name in ("paths", "goals", "weights"):
+            np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
+
+
+def test_the_runner_in_the_cuda_mode_waits_only_at_checks_and_copies(runner, monkeypatch):
+    """The runner's CUDA mode, run on the CPU: per batch and sampling, the k-means checks and the
+    three copies of its results to the host; repeatable with the seeds."""
+    monkeypatch.setattr(ynet_scoring, "kmeans_check_every", lambda device: 16)
+    with SyncAudit() as audit:
+        light = run(*runner)
+    iterations = audit.ops["aten.randint.generator"]
+    batch_samplings = 3 * len(runner[3])  # 5 windows in batches of 2, each sampled 4 times
+    kinds = Counter(what for what, _ in audit.events)
+    # each copy is `.cpu().numpy()`: on CUDA the `.numpy()` of a host tensor is free
+    assert kinds["cpu"] == kinds["numpy"] == 3 * batch_samplings  # paths, goals, weights
+    assert set(kinds) == {"cpu", "numpy", "scalar read"}  # no size read, no host-made index
+    assert audit.events.count(HOST_CHECK) == kinds["scalar read"] <= iterations / 16
+    for mine, again in zip(light, run(*runner)):
+        np.testing.assert_array_equal(mine.paths, again.paths)
+        np.testing.assert_array_equal(mine.goals, again.goals)
+        np.testing.assert_array_equal(mine.weights, again.weights)
