@@ -28,7 +28,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.device import describe, select_device, synchronize  # noqa: E402
+from pipeline.device import SCORING, TRAINING, describe, select_device, synchronize  # noqa: E402
 from pipeline.runners.ynet_scoring import predict_scenes, sampling_options
 from pipeline.config import CwsParams, EvalParams, TtstParams, load_profile, load_section, read_params
 from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch  # noqa: E402
@@ -98,7 +98,7 @@ def main() -> None:
     keep_freed_memory()
     torch.set_num_threads(args.threads)
     torch.set_flush_denormal(True)
-    device = select_device(args.device)
+    device = select_device(args.device, purpose=SCORING)
     params = read_params()
     print(f"torch {torch.__version__} on {describe(device)}; GLIBC_TUNABLES="
           f"{os.environ.get('GLIBC_TUNABLES', '(unset)')}; load average "
@@ -116,7 +116,9 @@ def main() -> None:
         settings = load_profile(YnetSettings, "ynet", chosen)
         settings.threads = args.threads
         evaluation = load_profile(EvalParams, "eval", chosen)
+        select_device(args.device, purpose=TRAINING)  # each measured as its stages run
         train = training_rate(settings, device, args.steps)
+        select_device(args.device, purpose=SCORING)
         score = scoring_rate(settings, evaluation, device, args.windows)
         rates[profile] = (settings, train, score)
         hw = "x".join(str(round(s * settings.resize)) for s in IMAGE_HW)

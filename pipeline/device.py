@@ -1,12 +1,16 @@
 """Where torch runs: one place that turns params.yaml `runtime.device` into a device and its habits.
 
-Every training and scoring stage calls `select_device` once and then only uses the helpers below, so
-no other module needs to know whether it runs on a CPU or a GPU:
+Every training and scoring stage calls `select_device` once, naming its purpose, and then only uses
+the helpers below, so no other module needs to know whether it runs on a CPU or a GPU:
 
 - `select_device("auto")` is CUDA when one is available, else the CPU; "cpu", "cuda" and "cuda:N"
   ask for exactly that and fail with a clear message when it is not there.
-- On CUDA it turns on TF32 matmuls and convolutions and deterministic algorithms where CUDA has
-  them (`torch.use_deterministic_algorithms(warn_only=True)`; see `NONDETERMINISTIC_ON_CUDA`).
+- On CUDA it turns on TF32 matmuls and convolutions, and what its `purpose` wants: `SCORING`
+  deterministic algorithms where CUDA has them (`torch.use_deterministic_algorithms(warn_only=True)`;
+  see `NONDETERMINISTIC_ON_CUDA`), so scoring a checkpoint repeats; `TRAINING` cuDNN's autotuner and
+  its fastest algorithms, deterministic or not, since a CUDA training run repeats only up to
+  rounding anyway (the upsampling's backward) and deterministic cuDNN gives up the fast
+  weight-gradient kernels.
 - `autocast(device)` is bfloat16 autocast on CUDA (convolutions and matmuls; losses, softmaxes and
   sampling stay float32, as autocast keeps them), and nothing on the CPU, whose `cpu` profile
   numbers must not move. Stages that chose CPU bf16 on purpose pass `cpu_bf16=True`; it takes
@@ -32,9 +36,10 @@ from pipeline.config import parse_device_name
 CPU = torch.device("cpu")
 
 # The op our models use whose CUDA kernel has no deterministic version (PyTorch 2.x, checked
-# against `torch.use_deterministic_algorithms`' list): with `warn_only=True` it runs anyway and
-# warns once. So on one GPU, training with one seed repeats up to float rounding in the decoders'
-# gradients, not bit for bit; scoring (forward passes, seeded sampling on the device) repeats.
+# against `torch.use_deterministic_algorithms`' list): under `SCORING`'s `warn_only=True` it would
+# run anyway and warn once. So on one GPU, training with one seed repeats up to float rounding in
+# the decoders' gradients, not bit for bit, whatever the settings (`TRAINING` does not try);
+# scoring (forward passes, seeded sampling on the device) repeats.
 # S-GAN's pooling (`scatter_reduce` "amax") and the U-Net's IoU (`bincount` without weights) have
 # deterministic results however their threads are ordered.
 NONDETERMINISTIC_ON_CUDA = (
@@ -58,18 +63,29 @@ def resolve_device(name: str) -> torch.device:
     return torch.device("cuda", index if index is not None else torch.cuda.current_device())
 
 
-def select_device(name: str) -> torch.device:
-    """`resolve_device`, then the settings that make CUDA fast and as repeatable as it allows."""
+TRAINING = "training"
+"""A stage that trains: cuDNN autotuning and non-deterministic algorithms (hardware speed)."""
+SCORING = "scoring"
+"""A stage that only runs trained models: deterministic algorithms, so its numbers repeat."""
+
+
+def select_device(name: str, *, purpose: str) -> torch.device:
+    """`resolve_device`, then the CUDA settings of `purpose` (`TRAINING` or `SCORING`); the CPU's
+    are left alone."""
+    if purpose not in (TRAINING, SCORING):
+        raise ValueError(f"purpose must be {TRAINING!r} or {SCORING!r}, got {purpose!r}")
     device = resolve_device(name)
     if device.type == "cuda":
-        # cuBLAS needs this before its first call to pick deterministic reductions.
-        os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
         torch.cuda.set_device(device)
         torch.backends.cuda.matmul.allow_tf32 = True
         torch.backends.cudnn.allow_tf32 = True
-        torch.backends.cudnn.benchmark = False
-        torch.backends.cudnn.deterministic = True
-        torch.use_deterministic_algorithms(True, warn_only=True)
+        repeatable = purpose == SCORING
+        if repeatable:
+            # cuBLAS needs this before its first call to pick deterministic reductions.
+            os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
+        torch.backends.cudnn.benchmark = not repeatable  # autotuned per input shape
+        torch.backends.cudnn.deterministic = repeatable
+        torch.use_deterministic_algorithms(repeatable, warn_only=True)
     return device
 
 

@@ -1,11 +1,14 @@
-"""`runtime.device`: names, resolution and the CPU helpers being identities."""
+"""`runtime.device`: names, resolution, each purpose's CUDA settings and the CPU helpers being
+identities."""
+
+import os
 
 import pytest
 import torch
 
 import pipeline.device
-from pipeline.device import (autocast, conv_layout, cpu_has_bf16, generator, resolve_device,
-                             to_device, use_bf16)
+from pipeline.device import (SCORING, TRAINING, autocast, conv_layout, cpu_has_bf16, generator,
+                             resolve_device, select_device, to_device, use_bf16)
 from pipeline.config import ParamsError, RuntimeParams, load_section, parse_device_name
 
 
@@ -38,6 +41,65 @@ def test_auto_names_the_current_cuda_device_by_index(monkeypatch):
     assert resolve_device("auto") == torch.device("cuda", 1)
     assert resolve_device("cuda") == torch.device("cuda", 1)
     assert resolve_device("cuda:0") == torch.device("cuda", 0)
+
+
+def torch_settings() -> dict:
+    """The process-wide switches `select_device` may set."""
+    return {"benchmark": torch.backends.cudnn.benchmark,
+            "cudnn deterministic": torch.backends.cudnn.deterministic,
+            "deterministic algorithms": torch.are_deterministic_algorithms_enabled(),
+            "warn only": torch.is_deterministic_algorithms_warn_only_enabled(),
+            "matmul tf32": torch.backends.cuda.matmul.allow_tf32,
+            "cudnn tf32": torch.backends.cudnn.allow_tf32,
+            "cublas workspace": os.environ.get("CUBLAS_WORKSPACE_CONFIG")}
+
+
+@pytest.fixture
+def restored_settings(monkeypatch):
+    """The switches as they were after the test; CUBLAS_WORKSPACE_CONFIG through monkeypatch."""
+    monkeypatch.delenv("CUBLAS_WORKSPACE_CONFIG", raising=False)
+    before = torch_settings()
+    yield before
+    torch.backends.cudnn.benchmark = before["benchmark"]
+    torch.backends.cudnn.deterministic = before["cudnn deterministic"]
+    torch.use_deterministic_algorithms(before["deterministic algorithms"], warn_only=before["warn only"])
+    torch.backends.cuda.matmul.allow_tf32 = before["matmul tf32"]
+    torch.backends.cudnn.allow_tf32 = before["cudnn tf32"]
+
+
+def test_training_autotunes_and_scoring_stays_deterministic_on_cuda(monkeypatch, restored_settings):
+    """Training may use any cuDNN algorithm (it repeats only up to rounding on CUDA anyway);
+    scoring keeps deterministic algorithms, so scoring a checkpoint twice gives the same numbers."""
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    monkeypatch.setattr(torch.cuda, "device_count", lambda: 1)
+    monkeypatch.setattr(torch.cuda, "current_device", lambda: 0)
+    monkeypatch.setattr(torch.cuda, "set_device", lambda device: None)
+    assert select_device("cuda", purpose=TRAINING) == torch.device("cuda", 0)
+    training = torch_settings()
+    del training["warn only"]  # meaningless with deterministic algorithms off
+    assert training == {"benchmark": True, "cudnn deterministic": False,
+                        "deterministic algorithms": False, "matmul tf32": True, "cudnn tf32": True,
+                        "cublas workspace": None}
+    select_device("cuda", purpose=SCORING)
+    assert torch_settings() == {"benchmark": False, "cudnn deterministic": True,
+                                "deterministic algorithms": True, "warn only": True,
+                                "matmul tf32": True, "cudnn tf32": True,
+                                "cublas workspace": ":4096:8"}
+    select_device("cuda", purpose=TRAINING)  # one process may measure both (bench_profiles)
+    assert not torch.backends.cudnn.deterministic and torch.backends.cudnn.benchmark
+
+
+def test_on_the_cpu_no_purpose_changes_a_setting(restored_settings):
+    for purpose in (TRAINING, SCORING):
+        assert select_device("cpu", purpose=purpose) == torch.device("cpu")
+        assert torch_settings() == restored_settings
+
+
+def test_a_purpose_must_be_named_and_known():
+    with pytest.raises(TypeError):
+        select_device("cpu")
+    with pytest.raises(ValueError, match="purpose"):
+        select_device("cpu", purpose="evaluation")
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has CUDA")

@@ -126,12 +126,15 @@ def sample_positions(
     return xy.to(prob.dtype).reshape(*prob.shape[:-2], num_samples, 2)
 
 
-def distinct_points(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+def distinct_points(points: torch.Tensor, size: int | None = None
+                    ) -> tuple[torch.Tensor, torch.Tensor]:
     """Each set's distinct points and how often each occurs: (N, P, 2) -> (N, U, 2), (N, U).
 
     Distinct points come in (x, y) order; sets with fewer than U distinct points are padded with
     weight-0 copies of their first point. Two stable sorts along each set order the points by
     (x, y) (much faster than a `torch.unique(dim=0)` over (set, x, y) rows, which gives the same).
+    U is the most distinct points of any set, read on the host (a sync on a GPU); `size` (at
+    least that, P always is) fixes U instead, so nothing waits for the device.
     """
     n, p, _ = points.shape
     order = points[..., 1].argsort(dim=-1, stable=True)  # (N, P) by y ...
@@ -140,7 +143,8 @@ def distinct_points(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     first = torch.ones(n, p, dtype=torch.bool, device=points.device)  # (N, P) starts a new point
     first[:, 1:] = (ordered[:, 1:] != ordered[:, :-1]).any(-1)
     slot = first.cumsum(1) - 1  # (N, P) index of each sorted point among its set's distinct ones
-    unique = points[:, :1].repeat(1, int(slot[:, -1].max()) + 1, 1)  # (N, U, 2)
+    size = int(slot[:, -1].max()) + 1 if size is None else size  # U
+    unique = points[:, :1].repeat(1, size, 1)  # (N, U, 2)
     unique.scatter_(1, slot[..., None].expand(n, p, 2), ordered)  # equal points write equal values
     weights = points.new_zeros(unique.shape[:2]).scatter_add_(1, slot, points.new_ones(n, p))
     return unique, weights
@@ -165,6 +169,25 @@ def nearest_centre(points: torch.Tensor, centres: torch.Tensor) -> torch.Tensor:
     return k - is_nearest.mul_(rank_from_last).amax(1).long()  # the first centre at the minimum
 
 
+def cluster_means(unique: torch.Tensor, weights: torch.Tensor, weighted: torch.Tensor,
+                  centres: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """One Lloyd step over weighted points (N, U, 2), weights (N, U), their product (N, U, 2) and
+    centres (N, k, 2): the weighted mean of each centre's points (N, k, 2), 0 for an empty
+    cluster, and which clusters are empty (N, k)."""
+    n, k, _ = centres.shape
+    nearest = nearest_centre(unique, centres)  # (N, U)
+    counts = centres.new_zeros(n, k).scatter_add_(1, nearest, weights)  # (N, k)
+    sums = centres.new_zeros(n, k, 2).scatter_add_(1, nearest[..., None].expand(n, -1, 2), weighted)
+    return sums / counts.clamp_min(1)[..., None], counts == 0
+
+
+def random_points(points: torch.Tensor, k: int, generator: torch.Generator) -> torch.Tensor:
+    """k points of each set drawn uniformly, with replacement: (N, P, 2) -> (N, k, 2)."""
+    n, p, _ = points.shape
+    index = torch.randint(p, (n, k), generator=generator, device=points.device)  # (N, k)
+    return torch.gather(points, 1, index[..., None].expand(n, k, 2))
+
+
 def kmeans(
     points: torch.Tensor,
     k: int,
@@ -172,6 +195,7 @@ def kmeans(
     max_iter: int = 1000,
     tol: float = 1e-3,
     distinct: tuple[torch.Tensor, torch.Tensor] | None = None,
+    check_every: int | None = None,
 ) -> torch.Tensor:
     """Lloyd's k-means on many point sets at once: (N, P, 2) -> centres (N, k, 2).
 
@@ -183,28 +207,38 @@ def kmeans(
     ones: the iterations run on those, weighted by their counts, and sum each cluster with
     `scatter_add` (no (N, U, k) one-hot). Random draws still index the full sets, so the centres are
     the ones the plain algorithm finds (bit-identical for whole-number points, whose sums are exact
-    in float32 in any order). `distinct`: `distinct_points(points)`, where the caller has it already.
+    in float32 in any order). `distinct`: `distinct_points(points)`, where the caller has it already
+    (weight-0 padding points change nothing).
+
+    `check_every` None: the host reads, every iteration, whether a cluster emptied (restart points
+    are drawn only then) and whether every set has stopped, and `distinct_points` reads its size:
+    about two host syncs per iteration, which on a GPU cost far more than the iteration's small
+    kernels. `check_every` n: the sync-light mode for GPUs. Distinct points are padded to P (fixed
+    shapes), restart points are drawn every iteration and taken only for empty clusters (no host
+    branch; the draws, and so the generator's stream, differ from the default mode's, but repeat
+    with the seed), and the host reads whether every set has stopped only every n iterations. Each
+    set still stops on the device at the iteration its own move falls below `tol` (its centres
+    frozen from then on), so where no cluster ever empties the centres equal the default mode's.
     """
+    if check_every is not None and check_every < 1:
+        raise ValueError(f"check_every must be at least 1, got {check_every}")
     n, p, _ = points.shape
     first = torch.rand(n, p, generator=generator, device=points.device).argsort(dim=-1)[:, :k]  # (N, k)
     centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))  # (N, k, 2)
-    unique, weights = distinct_points(points) if distinct is None else distinct  # (N, U, 2), (N, U)
+    if distinct is None:
+        distinct = distinct_points(points, None if check_every is None else p)
+    unique, weights = distinct  # (N, U, 2), (N, U)
     weighted = unique * weights[..., None]  # (N, U, 2)
     active = torch.ones(n, dtype=torch.bool, device=points.device)
-    for _ in range(max_iter):
-        nearest = nearest_centre(unique, centres)  # (N, U)
-        counts = points.new_zeros(n, k).scatter_add_(1, nearest, weights)  # (N, k)
-        sums = points.new_zeros(n, k, 2).scatter_add_(1, nearest[..., None].expand(n, -1, 2), weighted)
-        new = sums / counts.clamp_min(1)[..., None]  # (N, k, 2)
-        empty = counts == 0
-        if empty.any():
-            restart = torch.randint(p, (n, k), generator=generator, device=points.device)
-            restart = torch.gather(points, 1, restart[..., None].expand(n, k, 2))
-            new = torch.where(empty[..., None], restart, new)
+    every = check_every or 1
+    for step in range(max_iter):
+        new, empty = cluster_means(unique, weights, weighted, centres)  # (N, k, 2), (N, k)
+        if check_every is not None or empty.any():  # sync-light: drawn every step, no host branch
+            new = torch.where(empty[..., None], random_points(points, k, generator), new)
         shift = (new - centres).square().sum(-1).sqrt().sum(-1)  # (N,)
         centres = torch.where(active[:, None, None], new, centres)
         active &= shift.square() >= tol
-        if not active.any():
+        if (step + 1) % every == 0 and not active.any():
             break
     return centres
 
@@ -222,7 +256,8 @@ def goal_masses(draws: torch.Tensor, goals: torch.Tensor,
 
 
 def ttst(
-    goal_logits: torch.Tensor, options: SamplingOptions, generator: torch.Generator
+    goal_logits: torch.Tensor, options: SamplingOptions, generator: torch.Generator,
+    check_every: int | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """TTST: K_e goals per window from goal logits (B, H, W) -> goals (B, K_e, 2) and their
     `goal_masses` (B, K_e).
@@ -230,15 +265,17 @@ def ttst(
     Goal 0 is the softargmax of the raw logits; the other K_e - 1 are k-means centres of
     `ttst_samples` draws from sigmoid(logits / T), pixels below rel_threshold * max suppressed.
     Clustering many draws spreads the few goals over the modes instead of wasting them nearby.
+    `check_every`: `kmeans`' (an int: its sync-light mode for GPUs, distinct points of fixed size).
     """
     best = softargmax(goal_logits)[:, None]  # (B, 1, 2)
     if options.K_e == 1:
         return best, torch.ones_like(best[..., 0])
     prob = torch.sigmoid(goal_logits / options.temperature)  # (B, H, W)
     draws = sample_positions(prob, options.ttst_samples, generator, options.rel_threshold)  # (B, S, 2)
-    distinct = distinct_points(draws)  # (B, U, 2), (B, U): for the k-means and the masses
+    size = None if check_every is None else options.ttst_samples  # fixed: no host read
+    distinct = distinct_points(draws, size)  # (B, U, 2), (B, U): for the k-means and the masses
     centres = kmeans(draws, options.K_e - 1, generator, options.kmeans_max_iter, options.kmeans_tol,
-                     distinct)
+                     distinct, check_every)
     goals = torch.cat([best, centres], dim=1)  # (B, K_e, 2)
     return goals, goal_masses(draws, goals, distinct)
 
@@ -353,17 +390,20 @@ def sample_weighted_waypoints(
     last_observed: torch.Tensor,
     options: SamplingOptions,
     generator: torch.Generator,
+    check_every: int | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor | None]:
     """Goals and waypoints for every sample: (B, n_w, H, W) logits, goal last -> (B, K_e*K_a, n_w, 2),
     and each sample's weight (B, K) (`Prediction.weights`; None without TTST).
 
     Goals: TTST, or K_e distinct pixels drawn from sigmoid(goal / T). Waypoints: CWS, or one
-    independent draw per sample from each sigmoid(waypoint / T) map.
+    independent draw per sample from each sigmoid(waypoint / T) map. `check_every`: TTST's k-means
+    mode (`kmeans`).
     """
     b, n_w, height, width = waypoint_logits.shape
     weights = None
     if options.use_ttst:
-        goals, masses = ttst(waypoint_logits[:, -1], options, generator)  # (B, K_e, 2), (B, K_e)
+        goals, masses = ttst(waypoint_logits[:, -1], options, generator,
+                             check_every)  # (B, K_e, 2), (B, K_e)
         weights = masses.repeat(1, options.K_a) / options.K_a  # (B, K), path-major as the goals
     else:  # as the authors: K_e distinct pixels, no relative threshold
         prob = torch.sigmoid(waypoint_logits[:, -1] / options.temperature)
@@ -404,7 +444,8 @@ def encode(model: YNet, scene_and_past: torch.Tensor) -> Encoded:
     with torch.inference_mode():
         features = model.encode(x)
         goal_logits = model.predict_goals(features)  # (B, n_f, H, W)
-        waypoint_logits = goal_logits[:, list(model.config.waypoints)].contiguous()
+        # one slice per waypoint: a list index would be copied to the GPU, waiting for it
+        waypoint_logits = torch.stack([goal_logits[:, i] for i in model.config.waypoints], dim=1)
     return Encoded(features=features, waypoint_logits=waypoint_logits)
 
 
@@ -417,6 +458,7 @@ def predict_encoded(
     max_distance: float | None = None,
     chunk_size: int = 8,
     bf16: bool = False,
+    check_every: int | None = None,
 ) -> Prediction:
     """`predict` after its `encode`: goals and waypoints drawn from `encoded`'s maps, and the
     trajectory decoder for every sample. Several samplings of one `encode` (other seeds, other
@@ -424,7 +466,7 @@ def predict_encoded(
     height, width = encoded.waypoint_logits.shape[-2:]
     with torch.inference_mode():
         samples, weights = sample_weighted_waypoints(encoded.waypoint_logits, last_observed.float(),
-                                                     options, generator)
+                                                     options, generator, check_every)
         steps = []
         for start in range(0, options.K, chunk_size):
             chunk = samples[:, start : start + chunk_size]  # (B, k, n_w, 2)
@@ -447,6 +489,7 @@ def predict(
     max_distance: float | None = None,
     chunk_size: int = 8,
     bf16: bool = False,
+    check_every: int | None = None,
 ) -> Prediction:
     """Y-net inference for a batch of windows on one map: K_e * K_a futures per window.
 
@@ -464,6 +507,9 @@ def predict(
     and what GPUs want. Encoder, goal decoder and sampling stay float32, so goals and waypoints
     (and FDE) are bit-identical to float32; trajectory positions move by a fraction
     of a pixel (0.01 px mean, 0.04 px max on an overfitted tiny model like the tests').
+
+    `check_every`: TTST's k-means mode (`kmeans`): None (the default) as always; an int for GPUs,
+    a host sync every that many iterations instead of about two per iteration (other draws).
     """
     return predict_encoded(model, encode(model, scene_and_past), last_observed, options, generator,
-                           max_distance, chunk_size, bf16)
+                           max_distance, chunk_size, bf16, check_every)

@@ -46,7 +46,7 @@ from pipeline.config import (RuntimeParams, TrainBaselineParams, WindowParams, l
                              read_params)
 from pipeline.data.window_table import load_windows
 from pipeline.device import generator as seeded_generator
-from pipeline.device import select_device
+from pipeline.device import TRAINING, select_device
 from pipeline.harness import baselines, epoch_selection
 from pipeline.harness.baselines import common
 from pipeline.harness.baseline_runs import model_config, train
@@ -90,7 +90,7 @@ def extend(model: str, horizon: int, epochs: int, seed: int, out: Path, params: 
     """Train (model, horizon, seed) to `epochs`, one epoch per call; returns the curve record."""
     settings = load_section(TrainBaselineParams, "train_baseline", params)
     n_past = load_section(WindowParams, "windows", params).n_past
-    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=TRAINING)
     torch.set_num_threads(settings.threads)
     name = f"{model}_tf{horizon}" + ("" if seed == settings.seed else f"_seed{seed}")
     folder, record_path = out / name, out / f"{name}.json"

@@ -107,15 +107,24 @@ def augment(scene: SceneWindows, turns: int, flip: bool) -> SceneWindows:
     return replace(scene, semantic=semantic.contiguous(), past=past, future=future)
 
 
+def mark_outside(padded: torch.Tensor, top: int, left: int, height: int, width: int,
+                 padding_class: int | None) -> torch.Tensor:
+    """`padded` (C, H', W') with every pixel outside the map's (height, width) block at (top, left)
+    set to 1 in channel `padding_class` (None: none), in place. Slices, not a boolean mask: a mask
+    write on a GPU waits for the device to count the mask's pixels."""
+    if padding_class is not None:
+        channel = padded[padding_class]  # (H', W')
+        channel[:top] = 1.0
+        channel[top + height:] = 1.0
+        channel[top:top + height, :left] = 1.0
+        channel[top:top + height, left + width:] = 1.0
+    return padded
+
+
 def padded_semantic(semantic: torch.Tensor, padding_class: int | None) -> torch.Tensor:
     """(C, H, W) -> (C, H', W') padded to multiples of 32; padded pixels belong to `padding_class`."""
-    padded = pad_to_multiple(semantic)
-    if padding_class is not None:
-        height, width = semantic.shape[-2:]
-        outside = torch.ones(padded.shape[-2:], dtype=torch.bool, device=padded.device)
-        outside[:height, :width] = False
-        padded[padding_class][outside] = 1.0
-    return padded
+    height, width = semantic.shape[-2:]
+    return mark_outside(pad_to_multiple(semantic), 0, 0, height, width, padding_class)
 
 
 def model_input(semantic_padded: torch.Tensor, past: torch.Tensor,
@@ -138,15 +147,17 @@ def agent_crops(semantic: torch.Tensor, centres: torch.Tensor, size: int,
     channels, height, width = semantic.shape
     half = size // 2
     padded = F.pad(semantic, (half, size, half, size))  # (C, H + half + size, W + half + size)
-    if padding_class is not None:
-        outside = torch.ones(padded.shape[-2:], dtype=torch.bool, device=padded.device)
-        outside[half:half + height, half:half + width] = False
-        padded[padding_class][outside] = 1.0
+    mark_outside(padded, half, half, height, width, padding_class)
     origin = torch.round(centres).long() - half  # (B, 2)
     origin[:, 0].clamp_(-half, width)  # every crop stays inside the padded map
     origin[:, 1].clamp_(-half, height)
-    crops = torch.stack([padded[:, y + half:y + half + size, x + half:x + half + size]
-                         for x, y in origin.tolist()])
+    # One gather for the whole batch, indices on the map's device: no per-agent loop reading
+    # the origins on the host.
+    offsets = torch.arange(size, device=padded.device)
+    channel = torch.arange(channels, device=padded.device)[None, :, None, None]  # (1, C, 1, 1)
+    row = (origin[:, 1, None] + half + offsets)[:, None, :, None]  # (B, 1, S, 1)
+    column = (origin[:, 0, None] + half + offsets)[:, None, None, :]  # (B, 1, 1, S)
+    crops = padded[channel, row, column]  # (B, C, S, S)
     return crops, origin.to(centres.dtype)
 
 
@@ -183,13 +194,19 @@ class TrainingBatch:
                                (self.inputs, self.waypoint_maps, self.target)))
 
 
+def at_steps(positions: torch.Tensor, indices: tuple[int, ...]) -> torch.Tensor:
+    """positions (B, T, 2) at the given steps: (B, len(indices), 2). Selected one by one: a list
+    index would be copied from the host to the GPU on every call, which waits for the device."""
+    return torch.stack([positions[:, i] for i in indices], dim=1)
+
+
 def training_batch(semantic_padded: torch.Tensor, past: torch.Tensor, future: torch.Tensor,
                    waypoints: tuple[int, ...], max_distance: float | None, kernel_size: int,
                    sigma: float) -> TrainingBatch:
     height, width = semantic_padded.shape[-2:]
     return TrainingBatch(
         inputs=model_input(semantic_padded, past, max_distance),
-        waypoint_maps=distance_maps(future[:, list(waypoints)], height, width, max_distance),
+        waypoint_maps=distance_maps(at_steps(future, waypoints), height, width, max_distance),
         target=gaussian_heatmaps(future, height, width, kernel_size, sigma),
     )
 
@@ -207,6 +224,6 @@ def cropped_training_batch(semantic: torch.Tensor, past: torch.Tensor, future: t
     future = future - origin[:, None]  # (B, n_f, 2) crop pixels
     return TrainingBatch(
         inputs=inputs,
-        waypoint_maps=distance_maps(future[:, list(waypoints)], crop, crop, max_distance),
+        waypoint_maps=distance_maps(at_steps(future, waypoints), crop, crop, max_distance),
         target=gaussian_heatmaps(future, crop, crop, kernel_size, sigma),
     )

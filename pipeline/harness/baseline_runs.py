@@ -29,7 +29,7 @@ import torch
 from pipeline.config import (EvaluateBaselineParams, RuntimeParams, TrainBaselineParams, WindowParams,
                              load_profile, load_section)
 from pipeline.data.window_table import WindowArrays, load_windows
-from pipeline.device import CPU, describe, select_device
+from pipeline.device import CPU, SCORING, TRAINING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import baselines, epoch_selection
 from pipeline.harness.baselines.common import best_path, fit_result_from, load_checkpoint, select_split
@@ -88,7 +88,7 @@ def train_record(model: str, horizon: int, table: Path, checkpoint_dir: Path, pa
     n_past = load_section(WindowParams, "windows", params).n_past
     runtime = load_section(RuntimeParams, "runtime", params)
     torch.set_num_threads(settings.threads)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=TRAINING)
     print(f"train_baseline {model} t_f = {horizon}, seed {seed}: {describe(device)}", flush=True)
     arrays = load_windows(table, n_past, horizon)
     t0 = time.perf_counter()
@@ -212,7 +212,7 @@ def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | 
     evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
     n_past = load_section(WindowParams, "windows", params).n_past
     torch.set_num_threads(evaluation.threads)
-    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
     print(f"evaluate_baseline {model} t_f = {horizon}: {describe(device)}", flush=True)
     scores, kept = score_split(model, table, horizon, checkpoint_dir, n_past, evaluation, device)
     if predictions is not None:

@@ -36,7 +36,7 @@ import torch
 from pipeline.config import (EvaluateBaselineParams, PecnetTestSelectionParams, RuntimeParams,
                              TrainBaselineParams, WindowParams, load_section)
 from pipeline.data.window_table import WindowArrays, load_windows
-from pipeline.device import CPU, describe, select_device
+from pipeline.device import CPU, TRAINING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import epoch_selection
 from pipeline.harness.baseline_runs import model_config
@@ -225,7 +225,7 @@ def diagnose(params: dict, tables: Sequence[Path], training_facts: Sequence[Path
     training = load_section(TrainBaselineParams, "train_baseline", params)
     runtime = load_section(RuntimeParams, "runtime", params)
     torch.set_num_threads(training.threads)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=TRAINING)
     t0 = time.perf_counter()
     per_horizon = {}
     for horizon in diagnostic.horizons:

@@ -31,7 +31,7 @@ import torch
 from pipeline.config import (EvaluateBaselineParams, RpecnetRolloutsParams, RuntimeParams,
                              WindowParams, load_section)
 from pipeline.data.window_table import WindowArrays, load_windows
-from pipeline.device import describe, select_device
+from pipeline.device import SCORING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness.baselines.common import select_split
 from pipeline.harness.baselines.rpecnet import VARIANTS, RecurrentPecnet
@@ -116,7 +116,7 @@ def rollouts_record(horizon_windows: Path, checkpoint_dir: Path, params: dict[st
     selection = load_section(EvaluateBaselineParams, "evaluate_baseline", params).epoch_selection
     n_past = load_section(WindowParams, "windows", params).n_past
     torch.set_num_threads(settings.threads)
-    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
     print(f"rpecnet_rollouts: {describe(device)}", flush=True)
     start = time.perf_counter()
     model = RecurrentPecnet.load(checkpoint_dir, device, selection)

@@ -10,8 +10,9 @@ and goals of every round can be kept as scored (`kept`, a `pipeline.harness.pred
 `PredictionRounds`) for the stored-predictions file. `qualitative_examples` draws a few windows'
 heatmaps and samples in one npz layout (the long-term figure's `qualitative_arrays` and the
 short-term windows of `pipeline.runners.short_term`). Runs on the model's device;
-on CUDA the trajectory decoder runs in bfloat16 (goals, and so FDE, stay float32). The model's
-settings come from its checkpoint (`load_model`), never from params.yaml.
+on CUDA the trajectory decoder runs in bfloat16 (goals, and so FDE, stay float32) and TTST's
+k-means in its sync-light mode (`kmeans_check_every`). The model's settings come from its
+checkpoint (`load_model`), never from params.yaml.
 """
 
 from __future__ import annotations
@@ -38,6 +39,20 @@ from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
 from ynet.sampling import SamplingOptions, encode, predict, predict_encoded
 from ynet.segmentation import PAD_CLASS
+
+
+CUDA_KMEANS_CHECK_EVERY = 16
+"""On CUDA, TTST's k-means asks the host whether it has converged every 16 iterations instead of
+waiting for the GPU about twice per iteration. At most 15 iterations run past the stop (their
+centres frozen, a few small kernels each) against one sync saved per iteration; 16 is the low end
+of what pays, not a value tuned on a GPU."""
+
+
+def kmeans_check_every(device: torch.device) -> int | None:
+    """TTST's k-means mode on `device` (`ynet.sampling.kmeans`' `check_every`): None on the CPU,
+    the exact mode every CPU number was scored with; `CUDA_KMEANS_CHECK_EVERY` on CUDA, the
+    sync-light mode, whose draws differ from the CPU's but repeat with the seed."""
+    return CUDA_KMEANS_CHECK_EVERY if device.type == "cuda" else None
 
 
 def sampling_options(k_e: int, k_a: int, ttst: TtstParams, cws: CwsParams, use_ttst: bool,
@@ -101,9 +116,11 @@ def predict_samplings(model: YNet, scenes: list[SceneWindows], settings: YnetSet
 
     crop > 0 runs the model on a crop x crop window ahead of each agent instead of the whole map
     (`ynet_data.window_inputs`): short-term futures stay near the agent. Runs on the model's device
-    (scenes are moved there); on CUDA the trajectory decoder runs in bfloat16.
+    (scenes are moved there); on CUDA the trajectory decoder runs in bfloat16 and TTST's k-means
+    checks for convergence on the host only every `CUDA_KMEANS_CHECK_EVERY` iterations.
     """
     device = module_device(model)
+    check_every = kmeans_check_every(device)
     draws = [generator(device, sampling.seed) for sampling in samplings]
     bf16 = use_bf16(device, params.bf16)
     n_future = scenes[0].future.shape[1]
@@ -128,7 +145,8 @@ def predict_samplings(model: YNet, scenes: list[SceneWindows], settings: YnetSet
                 for i, sampling in enumerate(samplings):
                     began = time.perf_counter()
                     out = predict_encoded(model, encoded, last_observed, sampling.options,
-                                          draws[i], settings.max_distance, params.chunk_size, bf16)
+                                          draws[i], settings.max_distance, params.chunk_size, bf16,
+                                          check_every)
                     paths[i][rows] = ((out.trajectory + origin[:, None, None]).cpu().numpy()
                                       / settings.resize)
                     goals[i][rows] = (out.goals + origin[:, None]).cpu().numpy() / settings.resize
@@ -249,7 +267,7 @@ def qualitative(model: YNet, scene: SceneWindows, row: int, settings: YnetSettin
     inputs, origin = window_inputs(scene.semantic, past, settings.max_distance, crop, PAD_CLASS,
                                    crop_lead_steps)  # (1, C + n_p, H', W'), origin (1, 2)
     out = predict(model, inputs, past[:, -1] - origin, options, generator(device, seed),
-                  settings.max_distance)
+                  settings.max_distance, check_every=kmeans_check_every(device))
     features = model.encode(inputs)
     goal_logits = model.predict_goals(features)[0, -1]
     first = out.waypoints[:, :1]  # (1, 1, n_w, 2) the first sample's goal and waypoints

@@ -35,7 +35,7 @@ from pipeline.data.ynet_data import (AUGMENTATIONS, SceneWindows, TrainingBatch,
                                      cropped_training_batch, group_by_scene, padded_semantic,
                                      training_batch, window_inputs)
 from pipeline import checkpoints
-from pipeline.device import CPU, autocast, conv_layout, restore_rng_states, rng_states
+from pipeline.device import CPU, autocast, conv_layout, restore_rng_states, rng_states, to_device
 from pipeline.harness.metrics import ade_fde
 from pipeline.io import IntermediateError, copy_file, save_torch, write_csv
 from pipeline.preemption import NEVER, Preemption
@@ -223,8 +223,9 @@ def validate(model: YNet, scenes: list[SceneWindows], settings: YnetSettings) ->
     return {"val_ade": scores["ade"], "val_fde": scores["fde"]}
 
 
-BatchPart = tuple[int, int, bool, np.ndarray]
-"""(scene index, quarter turns, flip, window rows): windows of one scene under one augmentation."""
+BatchPart = tuple[int, int, bool, np.ndarray | torch.Tensor]
+"""(scene index, quarter turns, flip, window rows): windows of one scene under one augmentation.
+Rows are numpy in a plan as drawn, tensors on the device once `plan_on_device` has moved them."""
 
 
 def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
@@ -265,6 +266,17 @@ def mixed_epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
             parts.append((int(s), turns, flip, rows))
         plan.append(parts)
     return plan
+
+
+def plan_on_device(plan: list[list[BatchPart]], device: torch.device) -> list[list[BatchPart]]:
+    """The plan with its window rows as index tensors on `device`, copied in one piece: a numpy
+    index would be copied to the GPU at every step, and each such copy waits for the device."""
+    rows = [part[3] for parts in plan for part in parts]
+    if not rows:
+        return plan
+    pieces = iter(to_device(torch.from_numpy(np.concatenate(rows)), device).split(
+        [len(r) for r in rows]))
+    return [[(s, turns, flip, next(pieces)) for s, turns, flip, _ in parts] for parts in plan]
 
 
 def scheduled_learning_rate(settings: YnetSettings, epoch: int, step: int, steps_in_epoch: int,
@@ -334,20 +346,31 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
                 averaged: torch.optim.swa_utils.AveragedModel | None = None) -> float:
     """One epoch's optimiser steps, from step `len(losses)` of `plan` on; returns the mean loss.
 
-    `losses` holds the steps already taken (a resumed epoch) and grows in place. Before each step
-    the loop asks `preemption`; if it says stop, `save_partial(losses)` checkpoints the epoch so
-    far and `StopRequested` is raised. `epochs`: the run's length, for the learning-rate schedule
-    (default `settings.epochs`). `averaged` (`average_weights`) follows every step.
+    `losses` holds the steps already taken (a resumed epoch) and grows in place: each step's loss
+    stays on the device until the epoch ends or stops, then all are read at once (reading one per
+    step would make the host wait for the GPU at every step). Before each step the loop asks
+    `preemption`; if it says stop, `save_partial(losses)` checkpoints the epoch so far and
+    `StopRequested` is raised. `epochs`: the run's length, for the learning-rate schedule (default
+    `settings.epochs`). `averaged` (`average_weights`) follows every step.
     """
     model.train()
     if settings.steps_per_epoch:
         plan = plan[:settings.steps_per_epoch]  # shuffled: a random subset of the batches
+    plan = plan_on_device(plan, device)
     epochs = epochs or settings.epochs
     augmented: dict[tuple[int, int, bool], tuple[SceneWindows, torch.Tensor]] = {}
+    unread: list[torch.Tensor] = []  # the losses of this call's steps, on the device
+
+    def read_losses() -> list[float]:
+        if unread:
+            losses.extend(torch.stack(unread).tolist())
+            unread.clear()
+        return losses
+
     for step in tqdm(range(len(losses), len(plan)), desc=f"epoch {epoch}", leave=False,
                      disable=None, initial=len(losses), total=len(plan)):
         if preemption.stop_reason():
-            save_partial(losses)
+            save_partial(read_losses())
             raise preemption.request(f"epoch {epoch}, step {step} of {len(plan)}")
         batch = plan_batch(plan[step], scenes, settings, augmented)
         inputs = batch.inputs
@@ -367,8 +390,8 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
         optimizer.step()
         if averaged is not None:
             averaged.update_parameters(model)
-        losses.append(loss.item())
-    return float(np.mean(losses))
+        unread.append(loss.detach())
+    return float(np.mean(read_losses()))
 
 
 RESUMABLE_SETTINGS = ("epochs", "threads")  # may change between an interrupted run and its resumption

@@ -21,7 +21,7 @@ import json
 from pathlib import Path
 
 from pipeline.config import read_params
-from pipeline.device import describe, select_device
+from pipeline.device import SCORING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ind import IndEvalSettings, evaluate_benchmark, write_predictions
 
@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="folder of every model's stored test predictions (<model>.parquet)")
     args = parser.parse_args(argv)
     settings = IndEvalSettings.from_params(read_params())
-    device = select_device(settings.runtime.device)
+    device = select_device(settings.runtime.device, purpose=SCORING)
     print(f"evaluate_ind: on {describe(device)}")
     trained = json.loads(args.train_metrics.read_text())
     result, predictions = evaluate_benchmark(args.ind, args.checkpoint_dir, trained, settings, device)

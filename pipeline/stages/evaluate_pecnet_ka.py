@@ -20,7 +20,7 @@ import torch
 from pipeline.config import (EvalParams, EvaluateBaselineParams, RuntimeParams, WindowParams,
                              load_profile, load_section, read_params)
 from pipeline.data.window_table import load_windows
-from pipeline.device import describe, select_device
+from pipeline.device import SCORING, describe, select_device
 from pipeline.harness import baselines
 from pipeline.harness.baseline_runs import ka_rows
 from pipeline.harness.baselines.common import select_split
@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> None:
     n_past = load_section(WindowParams, "windows", all_params).n_past
     runtime = load_section(RuntimeParams, "runtime", all_params)
     torch.set_num_threads(params.threads)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=SCORING)
     print(f"evaluate_pecnet_ka: {describe(device)}", flush=True)
 
     model = baselines.get("pecnet").load(args.checkpoint_dir, device, params.epoch_selection)

@@ -27,7 +27,7 @@ import torch
 from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTermModelsParams,
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
-from pipeline.device import describe, select_device
+from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.short_term import prediction_metadata, run_record, score_baseline
@@ -54,7 +54,7 @@ def main(argv: list[str] | None = None) -> None:
     profile = params["profile"]
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     windows = load_section(ShortTermParams, "short_term", params)
-    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
     print(f"evaluate_short_term_baseline: {args.model} on {describe(device)}")
 
     bench = load_in_unit(args.windows, args.dataset, windows.n_past, windows.n_future)

@@ -34,7 +34,7 @@ import numpy as np
 
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
                              load_profile, load_section, read_params)
-from pipeline.device import describe, select_device
+from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
 from pipeline.runners.short_term import (load_dataset, prediction_metadata, run_record,
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> None:
     profile = params["profile"]
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     windows = load_section(ShortTermParams, "short_term", params)
-    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
 
     bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
     maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)

@@ -26,7 +26,7 @@ from pipeline.config import (CwsParams, EvalParams, RuntimeParams, TtstParams, l
                              load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
-from pipeline.device import describe, select_device
+from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
 from pipeline.runners.ynet_scoring import (evaluation_sequence, load_for_scoring,
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> None:
     ttst = load_section(TtstParams, "ttst", params)
     cws = load_section(CwsParams, "cws", params)
     eval_params = load_profile(EvalParams, "eval", params)
-    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
 
     print(f"evaluate_ynet: on {describe(device)}")
     table = pd.read_parquet(args.windows)

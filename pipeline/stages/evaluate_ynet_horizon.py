@@ -63,7 +63,7 @@ def score(args: argparse.Namespace, trained: dict, scoring: SlotScoring) -> None
     """Score the trained horizon. The modules that load torch are imported here: a horizon the
     profile does not train writes its record above in a fraction of a second."""
     from pipeline.data.semantic_maps import load_semantic_maps
-    from pipeline.device import describe, select_device
+    from pipeline.device import SCORING, describe, select_device
     from pipeline.runners.ynet_scoring import (evaluate, load_for_scoring, prediction_metadata,
                                                sampling_options)
     from pipeline.runners.ynet_training import image_sizes
@@ -71,7 +71,7 @@ def score(args: argparse.Namespace, trained: dict, scoring: SlotScoring) -> None
     params = read_params()
     eval_params, rounds = scoring.eval, scoring.eval.rounds
     n_past = load_section(WindowParams, "windows", params).n_past
-    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
 
     test = horizon_splits(args.table, n_past, args.horizon)["test"]
     print(f"evaluate_ynet_horizon: scoring on {describe(device)}")

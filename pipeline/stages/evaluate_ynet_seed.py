@@ -59,14 +59,15 @@ def score(args: argparse.Namespace, trained: dict, scoring: SlotScoring) -> None
     """Score the trained seed. The modules that load torch are imported here: a slot the profile
     does not train writes its record above in a fraction of a second."""
     from pipeline.data.semantic_maps import load_semantic_maps
-    from pipeline.device import describe, select_device
+    from pipeline.device import SCORING, describe, select_device
     from pipeline.runners.ynet_main import TRAINING_KEYS
     from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring
     from pipeline.runners.ynet_training import image_sizes
 
     training = {key: index_value(trained, key, kind, args.train_metrics) for key, kind in TRAINING_KEYS}
     eval_params = scoring.eval
-    device = select_device(load_section(RuntimeParams, "runtime", read_params()).device)
+    runtime = load_section(RuntimeParams, "runtime", read_params())
+    device = select_device(runtime.device, purpose=SCORING)
 
     print(f"evaluate_ynet_seed: on {describe(device)}")
     table = pd.read_parquet(args.windows)

@@ -19,7 +19,7 @@ import torch
 
 from pipeline.config import RuntimeParams, SegmentationParams, load_profile, load_section, read_params
 from pipeline.data.labels import read_index
-from pipeline.device import describe, select_device
+from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.segmentation import (export_model, fingerprint, load_training_scenes, train,
@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> None:
     runtime = load_section(RuntimeParams, "runtime", raw)
     profile = raw["profile"]
     torch.set_num_threads(params.threads)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=TRAINING)
 
     index = read_index(args.labels)
     names = sorted(n for n, v in index["videos"].items() if v["split"] == "train")

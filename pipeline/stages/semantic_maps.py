@@ -17,7 +17,7 @@ from pathlib import Path
 
 from pipeline.config import RuntimeParams, SemanticParams, load_section, read_params
 from pipeline.data.semantic_maps import build_maps
-from pipeline.device import describe, select_device
+from pipeline.device import SCORING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate
 
 
@@ -34,7 +34,7 @@ def main(argv: list[str] | None = None) -> None:
     raw = read_params()
     params = load_section(SemanticParams, "semantic", raw)
     runtime = load_section(RuntimeParams, "runtime", raw)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=SCORING)
     print(f"semantic_maps: source {params.source}, on {describe(device)}")
     metrics = build_maps(args.sdd, args.labels, args.model, args.out, args.metrics, args.figures,
                          params, device)

@@ -18,7 +18,7 @@ import argparse
 from pathlib import Path
 
 from pipeline.config import read_params
-from pipeline.device import describe, select_device
+from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ind import IndTrainSettings, train_benchmark
@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
     args = parser.parse_args(argv)
     settings = IndTrainSettings.from_params(read_params())
-    device = select_device(settings.runtime.device)
+    device = select_device(settings.runtime.device, purpose=TRAINING)
     print(f"train_ind: on {describe(device)}")
     with Preemption(settings.runtime.max_minutes) as preemption:
         record = train_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir,

@@ -27,7 +27,7 @@ import torch
 from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTermModelsParams,
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
-from pipeline.device import describe, select_device
+from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import benchmark_of, train_baseline, training_record
@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> None:
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     windows = load_section(ShortTermParams, "short_term", params)
     runtime = load_section(RuntimeParams, "runtime", params)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=TRAINING)
     print(f"train_short_term_baseline: {args.model} on {describe(device)}")
 
     bench = load_in_unit(args.windows, args.dataset, windows.n_past, windows.n_future)

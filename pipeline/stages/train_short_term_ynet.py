@@ -23,7 +23,7 @@ from pathlib import Path
 
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
                              load_profile, load_section, read_params)
-from pipeline.device import describe, select_device
+from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import (load_dataset, not_run_record, train_ynet, training_record,
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("Y-net on sdd needs --sdd")
     windows = load_section(ShortTermParams, "short_term", params)
     runtime = load_section(RuntimeParams, "runtime", params)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=TRAINING)
 
     bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
     scene_ids = set(bench.train.scene_id) | set(bench.val.scene_id) | set(bench.test.scene_id)

@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 
 from pipeline.config import RuntimeParams, load_profile, load_section, read_params
-from pipeline.device import describe, select_device
+from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_main import train_main
@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> None:
     params = read_params()
     settings = load_profile(YnetSettings, "ynet", params)
     runtime = load_section(RuntimeParams, "runtime", params)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=TRAINING)
 
     with Preemption(runtime.max_minutes) as preemption:
         summary = train_main(args.windows, args.semantic_maps, args.sdd, args.n_past, settings,

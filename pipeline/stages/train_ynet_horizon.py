@@ -25,7 +25,7 @@ from pathlib import Path
 from pipeline.config import (HorizonParams, RuntimeParams, WindowParams, load_profile, load_section,
                              read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
-from pipeline.device import describe, select_device
+from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_horizon import horizon_splits, not_run_record
@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> None:
     settings = load_profile(YnetSettings, "ynet", params)
     n_past = load_section(WindowParams, "windows", params).n_past
     runtime = load_section(RuntimeParams, "runtime", params)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=TRAINING)
 
     splits = horizon_splits(args.table, n_past, args.horizon)
     epochs = {int(h): int(e) for h, e in horizon_params.epochs.items()}[args.horizon]

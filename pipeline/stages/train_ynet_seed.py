@@ -23,7 +23,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from pipeline.config import RuntimeParams, YnetSeedsParams, load_profile, load_section, read_params
-from pipeline.device import describe, select_device
+from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_main import seed_not_run_record, seed_training_record, train_main
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> None:
 
     settings = replace(load_profile(YnetSettings, "ynet", params), seed=args.seed)
     runtime = load_section(RuntimeParams, "runtime", params)
-    device = select_device(runtime.device)
+    device = select_device(runtime.device, purpose=TRAINING)
     args.checkpoint_dir.mkdir(parents=True, exist_ok=True)
     history = args.checkpoint_dir / "history.csv"
     with Preemption(runtime.max_minutes) as preemption:
