@@ -29,7 +29,7 @@ import torch
 
 from pipeline.config import (DATASETS, RuntimeParams, TrainBaselineParams, load_section,
                              read_params)
-from pipeline.device import select_device
+from pipeline.device import TRAINING, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.harness.pecnet_test_selection import summary_line
 from pipeline.runners.short_term_test_selection import (fold_record, switched_off_record,
@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> None:
         write_json(record, args.out)
         return
     torch.set_num_threads(load_section(TrainBaselineParams, "train_baseline", params).threads)
-    device = select_device(load_section(RuntimeParams, "runtime", params).device)
+    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=TRAINING)
     with tempfile.TemporaryDirectory(prefix="short_term_pecnet_test_selection_") as scratch:
         record = fold_record(args.dataset, params, args.windows, args.training_facts,
                              args.run_metrics, Path(scratch) / f"{args.dataset}_pecnet", device)
