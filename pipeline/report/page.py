@@ -336,8 +336,9 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
                  "K = 20, leave one scene out. Ours: metrics/short_term/ethucy_<scene>.json; "
                  "under a cell's own protocol: metrics/beyond/short_term.json (the stored "
                  "predictions); our AVG is the mean of our five scene means. PECNet retrained with "
-                 "upstream's epochs selected on test (compat diagnostic, never shown as ours): "
-                 "metrics/short_term/pecnet_test_selection/<scene>.json.",
+                 "upstream's epochs selected on test, on the folds the compat switch "
+                 "short_term_pecnet_test_selection.folds lists (none by default; never shown as "
+                 "ours, only named as a cause): metrics/short_term/pecnet_test_selection/<scene>.json.",
                  spec["unit"], 3, tuple(columns), tuple(rows))
 
 
