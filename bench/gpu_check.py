@@ -89,7 +89,7 @@ def count_sync_warnings(fn: Callable[[], None],
         finally:
             set_mode(0)
     syncs = [w for w in caught if SYNC_WARNING in str(w.message)]
-    where = Counter(f"{Path(w.filename).name}:{w.lineno}" for w in syncs)
+    where = Counter(f"{Path(w.filename).parent.name}/{Path(w.filename).name}:{w.lineno}" for w in syncs)
     return {"count": len(syncs), "where": [[line, n] for line, n in where.most_common(10)],
             "other_warnings": len(caught) - len(syncs)}
 
@@ -113,14 +113,16 @@ def profile_training(bench: TrainingBench, steps: int, activities, kernel_type,
 def sync_counts(bench: TrainingBench, scoring: ScoringBench, steps: int,
                 set_mode: Callable[[str | int], None] | None = None) -> dict:
     """The host syncs of `steps` warm training steps (training's device settings) and of one warm
-    scoring batch (scoring's), `count_sync_warnings` of each."""
+    scoring batch (scoring's), `count_sync_warnings` of each; `calibration`: the count for one
+    `.item()`, which must be 1 on CUDA (0 would mean the warnings were not seen)."""
+    calibration = count_sync_warnings(lambda: torch.ones((), device=bench.device).item(), set_mode)
     select_device(str(bench.device), purpose=TRAINING)
     plan = bench.plan[:steps]
     train = {**count_sync_warnings(lambda: bench.run(plan), set_mode), "steps": len(plan)}
     select_device(str(scoring.device), purpose=SCORING)
     rows = warmup_rows(scoring.windows, scoring.evaluation.batch_size)[0]  # one batch, warm
     score = {**count_sync_warnings(lambda: scoring.run(rows), set_mode), "windows": rows}
-    return {"training": train, "scoring": score}
+    return {"calibration": calibration["count"], "training": train, "scoring": score}
 
 
 class Report:
@@ -250,7 +252,9 @@ def main(argv: list[str] | None = None) -> None:
             report.say(f"  {NO_CUDA}")
             return NO_CUDA
         result = sync_counts(bench, scoring, 5)
-        for what, counted in result.items():
+        report.say(f"  calibration: {result['calibration']} sync counted for one .item() (expected 1)")
+        for what in ("training", "scoring"):
+            counted = result[what]
             size = (f"{counted['steps']} steps" if what == "training"
                     else f"one batch of {counted['windows']} windows")
             report.say(f"  {what}: {counted['count']} syncs over {size}; where: {counted['where']}")

@@ -87,7 +87,7 @@ def test_the_kernel_profile_runs_with_the_cpu_as_its_device(benches):
 def test_the_sync_count_runs_on_the_cpu(benches):
     result = sync_counts(benches[0], benches[2], 2, set_mode=lambda mode: None)
     assert (result["training"]["steps"], result["scoring"]["windows"]) == (2, 2)
-    assert result["training"]["count"] == result["scoring"]["count"] == 0
+    assert result["calibration"] == result["training"]["count"] == result["scoring"]["count"] == 0
 
 
 def test_output_paths():
@@ -121,4 +121,4 @@ def test_count_sync_warnings_counts_only_sync_warnings_and_restores_the_mode():
     counted = count_sync_warnings(work, set_mode=modes.append)
     assert counted["count"] == 3 and counted["other_warnings"] == 1
     assert modes == ["warn", 0]
-    assert counted["where"][0][1] == 3 and counted["where"][0][0].startswith("test_gpu_check.py:")
+    assert counted["where"][0][1] == 3 and counted["where"][0][0].startswith("tests/test_gpu_check.py:")
