@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline import baselines
+from pipeline.harness import baselines
 from pipeline.config import load_profile, read_params
 from pipeline.data.window_table import WindowArrays
 

@@ -1,0 +1,303 @@
+"""One prepared GPU check: the numbers a GPU session needs, from one command, written to one file.
+
+Not a test. Needs only the repository (synthetic inputs: no data/, no ../shared, no network, no
+DVC). On a CUDA device, with the `paper` profile's settings (params.yaml):
+
+1. Y-net's training rate under the old training settings (deterministic cuDNN, autotuning off:
+   the device set up with purpose=SCORING) and under the new (purpose=TRAINING);
+2. the top CUDA kernels by device time over a few training steps (torch.profiler);
+3. scoring windows/s at K_e 20, K_a 1 (TTST + CWS, the scoring settings);
+4. the host syncs of a few training steps and of one scoring batch, once both are warm, as
+   `torch.cuda.set_sync_debug_mode("warn")` reports them (the warnings caught and counted);
+5. the segmentation, S-GAN and PECNet training rates (`bench/stage_rates.py`) and the hours of
+   every `paper` training stage (`bench/projection.py`; counts from --data's window tables, else
+   unknown: `python bench/projection.py --rates <the JSON>` projects them later where data/ is).
+
+Each part is timed after a warm-up on its shapes (`bench/bench_profiles.py`) and runs on its own:
+one that fails records its error and the rest go on. Prints everything and writes
+`gpu_check.json` (every number) and `gpu_check.txt` (what was printed) into --out (a folder;
+default $OUT), or the JSON to --out itself if it ends in .json.
+
+    python bench/gpu_check.py --out "$OUT"          # a GPU machine: a few minutes
+    python bench/gpu_check.py --smoke --out /tmp/x  # anywhere: tiny sizes, CUDA parts skipped, < 1 min
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import sys
+import time
+import traceback
+import warnings
+from collections import Counter
+from collections.abc import Callable
+from pathlib import Path
+
+import torch
+from torch.autograd import DeviceType
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench import projection  # noqa: E402
+from bench.bench_profiles import (IMAGE_HW, ScoringBench, TrainingBench, gib,  # noqa: E402
+                                  main_options, profile_settings, warmup_rows)
+from bench.bench_ynet import keep_freed_memory  # noqa: E402
+from bench.stage_rates import stage_rates  # noqa: E402
+from pipeline.config import read_params  # noqa: E402
+from pipeline.device import SCORING, TRAINING, describe, select_device, synchronize  # noqa: E402
+
+SMOKE_IMAGE_HW = (512, 416)  # a quarter of the SDD-sized scene per side: 128 x 104 at resize 0.25
+NO_CUDA = "skipped: no CUDA"
+SYNC_WARNING = "synchroniz"  # in "called a synchronizing CUDA operation"
+
+
+def output_paths(out: Path) -> tuple[Path, Path]:
+    """(JSON, text) files for --out: a .json path and the .txt beside it, or a folder's
+    gpu_check.json and gpu_check.txt."""
+    out = Path(out)
+    if out.suffix == ".json":
+        return out, out.with_suffix(".txt")
+    return out / "gpu_check.json", out / "gpu_check.txt"
+
+
+def top_events(events, time_attr: str, n: int, device_type=None) -> list[dict]:
+    """The `n` profiler averages (`prof.key_averages()`) with the most `time_attr` (microseconds),
+    of `device_type` only if given (`torch.autograd.DeviceType.CUDA`: the kernels themselves, not
+    the ops that launched them), with their share of that type's total."""
+    timed = [(getattr(e, time_attr, 0) or 0, e) for e in events
+             if device_type is None or e.device_type == device_type]
+    total = sum(t for t, _ in timed)
+    ranked = sorted((pair for pair in timed if pair[0] > 0), key=lambda pair: -pair[0])[:n]
+    return [{"name": e.key, "ms": t / 1000, "share": t / total if total else 0.0, "calls": e.count}
+            for t, e in ranked]
+
+
+def count_sync_warnings(fn: Callable[[], None],
+                        set_mode: Callable[[str | int], None] | None = None) -> dict:
+    """Run `fn` with CUDA's sync debug mode at "warn" (`set_mode`, default
+    `torch.cuda.set_sync_debug_mode`) and count the synchronizing-operation warnings it raises,
+    with the lines (file:line) they came from."""
+    set_mode = set_mode or torch.cuda.set_sync_debug_mode
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        set_mode("warn")
+        try:
+            fn()
+        finally:
+            set_mode(0)
+    syncs = [w for w in caught if SYNC_WARNING in str(w.message)]
+    where = Counter(f"{Path(w.filename).parent.name}/{Path(w.filename).name}:{w.lineno}" for w in syncs)
+    return {"count": len(syncs), "where": [[line, n] for line, n in where.most_common(10)],
+            "other_warnings": len(caught) - len(syncs)}
+
+
+def profile_training(bench: TrainingBench, steps: int, activities, kernel_type,
+                     time_attr: str = "self_device_time_total") -> dict:
+    """The top kernels (events of `kernel_type`, by `time_attr`) and the ops that launched them (by
+    self device time) over `steps` warm training steps profiled with `activities`."""
+    from torch.profiler import profile
+    plan = bench.plan[:steps]
+    with profile(activities=activities) as prof:
+        bench.run(plan)
+        synchronize(bench.device)
+    events = prof.key_averages()
+    kernels = top_events(events, time_attr, 15, kernel_type)
+    ops = top_events(events, "self_device_time_total", 10, DeviceType.CPU)
+    kernel_us = sum(getattr(e, time_attr) for e in events if e.device_type == kernel_type)
+    return {"steps": len(plan), "kernels": kernels, "ops": ops, "kernel_ms": kernel_us / 1000}
+
+
+def sync_counts(bench: TrainingBench, scoring: ScoringBench, steps: int,
+                set_mode: Callable[[str | int], None] | None = None) -> dict:
+    """The host syncs of `steps` warm training steps (training's device settings) and of one warm
+    scoring batch (scoring's), `count_sync_warnings` of each; `calibration`: the count for one
+    `.item()`, which must be 1 on CUDA (0 would mean the warnings were not seen)."""
+    calibration = count_sync_warnings(lambda: torch.ones((), device=bench.device).item(), set_mode)
+    select_device(str(bench.device), purpose=TRAINING)
+    plan = bench.plan[:steps]
+    train = {**count_sync_warnings(lambda: bench.run(plan), set_mode), "steps": len(plan)}
+    select_device(str(scoring.device), purpose=SCORING)
+    rows = warmup_rows(scoring.windows, scoring.evaluation.batch_size)[0]  # one batch, warm
+    score = {**count_sync_warnings(lambda: scoring.run(rows), set_mode), "windows": rows}
+    return {"calibration": calibration["count"], "training": train, "scoring": score}
+
+
+class Report:
+    """What the check prints, kept for the text file, and the JSON it writes."""
+
+    def __init__(self):
+        self.lines: list[str] = []
+        self.data: dict = {}
+
+    def say(self, line: str = "") -> None:
+        print(line, flush=True)
+        self.lines.append(line)
+
+    def part(self, key: str, fn: Callable[[], object]) -> object:
+        """`data[key] = fn()`, or {"error": ...} if it fails (the other parts still run)."""
+        start = time.perf_counter()
+        try:
+            self.data[key] = fn()
+        except Exception as e:  # noqa: BLE001 - one failing part must not lose the others
+            self.data[key] = {"error": f"{type(e).__name__}: {e}", "traceback": traceback.format_exc()}
+            self.say(f"  {key}: FAILED {type(e).__name__}: {e}")
+        self.say(f"  ({key}: {time.perf_counter() - start:.1f} s)")
+        return self.data[key]
+
+
+def environment(device: torch.device) -> dict:
+    env = {"torch": torch.__version__, "cuda": torch.version.cuda, "device": describe(device),
+           "threads": torch.get_num_threads(), "cpu_count": os.cpu_count(),
+           "load_average": list(os.getloadavg())}
+    if device.type == "cuda":
+        env["cudnn"] = torch.backends.cudnn.version()
+        env["gpu_memory_bytes"] = torch.cuda.get_device_properties(device).total_memory
+    return env
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=os.environ.get("OUT"),
+                        help="folder for gpu_check.json / .txt (default $OUT), or a .json path")
+    parser.add_argument("--smoke", action="store_true",
+                        help="tiny sizes and a few steps, to test the script (CPU: under a minute)")
+    parser.add_argument("--device", default="auto")
+    parser.add_argument("--steps", type=int, default=20, help="timed training steps")
+    parser.add_argument("--windows", type=int, default=32, help="timed scoring windows")
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--data", type=Path, default=Path("data"),
+                        help="window tables for the projection's counts (absent: unknown)")
+    args = parser.parse_args(argv)
+    if args.out is None:
+        parser.error("give --out (or set $OUT)")
+    keep_freed_memory()
+    began = time.perf_counter()
+    torch.set_num_threads(args.threads)
+    torch.set_flush_denormal(True)
+    params = read_params()
+    device = select_device(args.device, purpose=TRAINING)
+    cuda = device.type == "cuda"
+    smoke = args.smoke
+    steps, windows = (2, 2) if smoke else (args.steps, args.windows)
+    image_hw = SMOKE_IMAGE_HW if smoke else IMAGE_HW
+    settings, evaluation = profile_settings(params, "paper", args.threads)
+    if smoke:
+        settings.batch_size = 2
+    evaluation = dataclasses.replace(evaluation, k_e=20, k_a=1)
+    report = Report()
+    report.data.update(smoke=smoke, environment=environment(device), profile="paper")
+    report.say(f"GPU check{' (smoke)' if smoke else ''}: torch {torch.__version__} on {describe(device)}; "
+               f"paper Y-net, synthetic {image_hw[0]}x{image_hw[1]} scene at resize {settings.resize}, "
+               f"batch {settings.batch_size}; {steps} timed training steps, {windows} timed windows")
+
+    bench = TrainingBench(settings, device, steps, image_hw)
+
+    def training(purpose: str) -> dict:
+        select_device(args.device, purpose=purpose)
+        result = bench.measure()
+        result["purpose"] = purpose
+        report.say(f"  training, purpose={purpose:8s}: {result['rate']:8.2f} samples/s, "
+                   f"{result['tflops']:.3f} TFLOP/s ({result['flops_per_sample'] / 1e9:.1f} GFLOP per "
+                   f"sample), peak {gib(result['peak_memory']['bytes'])}, shapes {result['shapes']}")
+        return result
+
+    report.say("\n1. Y-net training: old settings (deterministic cuDNN, no autotuning) and new")
+    old = report.part("training_old", lambda: training(SCORING))
+    new = report.part("training_new", lambda: training(TRAINING))
+    if "rate" in old and "rate" in new:
+        report.data["training_speedup"] = new["rate"] / old["rate"]
+        report.say(f"  new / old: {report.data['training_speedup']:.2f}x"
+                   + ("" if cuda else " (the CPU: both settings are the same)"))
+
+    report.say("\n2. Top CUDA kernels over a few training steps (new settings)")
+
+    def kernels() -> object:
+        if not cuda:
+            report.say(f"  {NO_CUDA}")
+            return NO_CUDA
+        from torch.profiler import ProfilerActivity
+        select_device(args.device, purpose=TRAINING)
+        result = profile_training(bench, 3, [ProfilerActivity.CPU, ProfilerActivity.CUDA],
+                                  DeviceType.CUDA)
+        for what in ("kernels", "ops"):
+            report.say(f"  {what} by self device time over {result['steps']} steps (ms, share, calls):")
+            for row in result[what]:
+                report.say(f"  {row['ms']:9.2f} ms {100 * row['share']:5.1f}% {row['calls']:6d}x  "
+                           f"{row['name'][:100]}")
+        return result
+
+    report.part("kernels", kernels)
+
+    scoring = ScoringBench(settings, evaluation, device, windows, main_options(evaluation, params),
+                           image_hw)
+    report.say(f"\n3. Scoring at K_e {evaluation.k_e}, K_a {evaluation.k_a} (TTST + CWS, scoring settings)")
+
+    def score() -> dict:
+        select_device(args.device, purpose=SCORING)
+        result = scoring.measure()
+        report.say(f"  {result['rate']:.3f} windows/s, {result['tflops']:.3f} TFLOP/s "
+                   f"({result['flops_per_window'] / 1e9:.1f} GFLOP per window), peak "
+                   f"{gib(result['peak_memory']['bytes'])}")
+        return result
+
+    report.part("scoring", score)
+
+    report.say("\n4. Host syncs (torch.cuda.set_sync_debug_mode('warn'))")
+
+    def syncs() -> object:
+        if not cuda:
+            report.say(f"  {NO_CUDA}")
+            return NO_CUDA
+        result = sync_counts(bench, scoring, 5)
+        report.say(f"  calibration: {result['calibration']} sync counted for one .item() (expected 1)")
+        for what in ("training", "scoring"):
+            counted = result[what]
+            size = (f"{counted['steps']} steps" if what == "training"
+                    else f"one batch of {counted['windows']} windows")
+            report.say(f"  {what}: {counted['count']} syncs over {size}; where: {counted['where']}")
+        return result
+
+    report.part("syncs", syncs)
+
+    report.say("\n5. paper segmentation, S-GAN and PECNet training rates, and the projection")
+
+    def other_stages() -> dict:
+        select_device(args.device, purpose=TRAINING)
+        stage_params = params
+        if smoke:  # a small U-Net crop: the paper one takes seconds a step on a CPU
+            segmentation = {**params["segmentation"]["paper"], "crop": 64, "batch_size": 2}
+            stage_params = {**params, "segmentation": {**params["segmentation"], "paper": segmentation}}
+        rates = stage_rates(stage_params, device, smoke=smoke)
+        for key, rate in rates.items():
+            report.say(f"  {key:13s} {rate['rate']:10.2f} {rate['unit']} ({rate['what']})")
+        return rates
+
+    stages = report.part("stage_rates", other_stages)
+    rates = {projection.YNET_SDD: new.get("rate") if isinstance(new, dict) else None}
+    if isinstance(stages, dict):
+        rates.update({key: value["rate"] for key, value in stages.items() if "rate" in value})
+    report.data["rates"] = rates
+    counts = projection.window_counts(args.data, params)
+    report.data["counts"] = {key: dataclasses.asdict(count) for key, count in counts.items()}
+    rows = projection.project(projection.paper_stages(params, counts), rates)
+    report.data["projection"] = rows
+    hours, unknown = projection.total_hours(rows)
+    report.data["projection_total_known_hours"] = hours
+    report.say()
+    for line in projection.projection_lines(rows, describe(device)):
+        report.say(line)
+
+    report.data["seconds"] = time.perf_counter() - began
+    report.say(f"\nGPU check done in {report.data['seconds']:.0f} s")
+    json_path, text_path = output_paths(args.out)
+    json_path.parent.mkdir(parents=True, exist_ok=True)
+    json_path.write_text(json.dumps(report.data, indent=1, default=str) + "\n")
+    text_path.write_text("\n".join(report.lines) + "\n")
+    print(f"wrote {json_path} and {text_path}")
+
+
+if __name__ == "__main__":
+    main()
