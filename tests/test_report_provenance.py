@@ -294,8 +294,9 @@ def test_the_test_selected_score_is_read_from_the_compat_record():
 def test_table_2_names_test_selection_as_the_cause_where_it_closes_the_gap(project):
     """PECNet's hotel ADE: ours 0.5 (headline) against the paper's 0.18, far under every protocol
     scored from stored predictions; with epochs selected on test 0.2 (+11 %), so the cause is
-    protocol; zara1's compat 0.4 stays far and the cell unknown. The AVG's compat is the mean of
-    the five folds' only when all five have one."""
+    protocol; zara1's compat 0.4 stays far, so the paper-values file's source note decides, with
+    the compat figure beside it. The AVG's compat is the mean of the five folds' only when all five
+    have one."""
     files = data_metrics() | model_metrics()
     for scene in ETHUCY_SCENES:
         files[f"short_term/ethucy_{scene}.json"]["models"]["pecnet"] = {
@@ -312,7 +313,8 @@ def test_table_2_names_test_selection_as_the_cause_where_it_closes_the_gap(proje
     assert pecnet["HOTEL"].test_selected.mean == 0.2
     assert pecnet["HOTEL"].why.verdict == "protocol"
     assert "epochs selected on the test set" in pecnet["HOTEL"].why.detail
-    assert pecnet["ZARA1"].why.verdict == "unknown"
+    assert pecnet["ZARA1"].why.verdict == "source"
+    assert pecnet["ZARA1"].why.detail.startswith("quoted from a configuration nobody can rerun")
     assert "+81.8 % with epochs selected on the test set" in pecnet["ZARA1"].why.detail
     assert pecnet["ETH"].test_selected is None and pecnet["AVG"].test_selected is None
 

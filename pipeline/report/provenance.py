@@ -352,7 +352,8 @@ def why_differs(paper: float, headline_diff: float | None, own_diff: float | Non
     headline; `protocol` when only ours under the cell's own protocol is; otherwise the first
     cause that holds: `seed spread` (the paper's number lies within our range over training
     seeds), `protocol` where ours with upstream's epochs selected on the test set
-    (`test_selected_diff`, a compat diagnostic) is within `far`, the yaml's note, `unknown`."""
+    (`test_selected_diff`, a compat diagnostic) is within `far`, the yaml's note (with the compat
+    figure where there is one), `unknown`."""
     protocol = source.protocol if source else HEADLINE_PROTOCOL
     own_scored = own_diff is not None and protocol not in (HEADLINE_PROTOCOL, "unknown")
     if within(own_diff if own_scored else headline_diff, far):
@@ -367,10 +368,10 @@ def why_differs(paper: float, headline_diff: float | None, own_diff: float | Non
         return Why("protocol", f"within {far:.0%} only with epochs selected on the test set, as "
                                f"upstream's training loop selects them (compat diagnostic, "
                                f"{test_selected_diff * 100:+.1f} %)")
-    if source is not None and source.differs_because is not None:
-        return Why(source.differs_because.cause, source.differs_because.note)
     selected = ("" if test_selected_diff is None else
                 f"; {test_selected_diff * 100:+.1f} % with epochs selected on the test set (compat)")
+    if source is not None and source.differs_because is not None:
+        return Why(source.differs_because.cause, source.differs_because.note + selected)
     if own_scored and within(headline_diff, far):
         return Why("unknown", f"within {far:.0%} under our headline protocol, "
                               f"{own_diff * 100:+.1f} % under {PROTOCOL_LABELS[protocol]}{selected}")
