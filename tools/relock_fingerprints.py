@@ -6,6 +6,7 @@ stage re-run outside DVC gives byte-identical outputs, or a test shows it); othe
     python tools/relock_fingerprints.py    # then: list what it would re-record, change nothing
     python tools/relock_fingerprints.py --write
     python tools/relock_fingerprints.py --write segmentation train_ynet_horizon   # only these
+    python tools/relock_fingerprints.py --write --absent-ok   # a checkout without the outputs
 
 It refuses when any stale stage it is to re-record has another change than a modified fingerprint
 dep (data, params, outputs, a fingerprint not yet written), naming those stages: they must run.
@@ -30,14 +31,21 @@ from tools.timed_repro import current_stages  # noqa: E402  (dvc.yaml's stage na
 FINGERPRINTS = "data/code_fingerprints/"
 
 
-def fingerprint_only(changes: list) -> bool:
-    """A stage's `dvc status --json` entry holds only modified fingerprint deps."""
+def fingerprint_only(changes: list, absent_ok: bool = False) -> bool:
+    """A stage's `dvc status --json` entry holds only modified fingerprint deps. With `absent_ok`
+    (a checkout that lacks the outputs: a new machine, no cache) a data file missing from the
+    workspace (`deleted`) is no change either: its record in dvc.lock stands as it is."""
     for change in changes:
-        if not isinstance(change, dict) or set(change) != {"changed deps"}:
+        if not isinstance(change, dict) or not set(change) <= {"changed deps", "changed outs"}:
             return False
-        if any(not path.startswith(FINGERPRINTS) or state != "modified"
-               for path, state in change["changed deps"].items()):
-            return False
+        for kind, paths in change.items():
+            for path, state in paths.items():
+                fingerprint = path.startswith(FINGERPRINTS)
+                if kind == "changed deps" and fingerprint and state == "modified":
+                    continue
+                if absent_ok and not fingerprint and state == "deleted":
+                    continue
+                return False
     return True
 
 
@@ -59,6 +67,8 @@ def unknown(targets: list[str], stage_names: Iterable[str]) -> list[str]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="re-record (default: only list)")
+    parser.add_argument("--absent-ok", action="store_true",
+                        help="outputs missing from this checkout (a new machine) count as unchanged")
     parser.add_argument("stages", nargs="*", help="only these stages or foreach groups (default: all)")
     args = parser.parse_args(argv)
     missing = unknown(args.stages, current_stages()) if args.stages else []
@@ -71,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
         print("code_fingerprints is stale: run `dvc repro code_fingerprints` first")
         return 1
     status = selected(status, args.stages)
-    must_run = sorted(stage for stage, changes in status.items() if not fingerprint_only(changes))
+    must_run = sorted(stage for stage, changes in status.items() if not fingerprint_only(changes, args.absent_ok))
     if must_run:
         print("these stages changed beyond their code fingerprint and must run:\n  "
               + "\n  ".join(must_run))
