@@ -1,5 +1,7 @@
 # Two entry points: `make repro` (environment + the whole DVC pipeline) and `make test`.
-PYTHON ?= python3.11
+# Python 3.11, 3.12 or 3.13: the first of them that runs here, or the one named by `make PYTHON=...`.
+PYTHON ?= $(firstword $(foreach python,python3.11 python3.12 python3.13,\
+	$(shell $(python) -c '' >/dev/null 2>&1 && echo $(python))))
 VENV ?= .venv
 BIN := $(VENV)/bin
 
@@ -7,10 +9,11 @@ BIN := $(VENV)/bin
 
 env: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml requirements.lock
+	@test -n "$(PYTHON)" || { echo "needs Python 3.11, 3.12 or 3.13 on PATH, or make PYTHON=/path/to/python3.x"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test]'
+	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
 	touch $@
 
 repro: env  # dvc repro, two single-threaded stages at once, each clocked (tools/timed_repro.py)
