@@ -16,30 +16,38 @@ import dataclasses
 from pathlib import Path
 
 NEEDS_PIPELINE = 3  # exit status: a pipeline output is missing (1: an error, 2: bad arguments)
-SMOKE_HELP = "tiny sizes on synthetic inputs, a few seconds: checks that the benchmark runs"
+SMOKE_HELP = ("tiny sizes on synthetic inputs, one thread, a few seconds: checks that the benchmark "
+              "runs")
 TINY_CHANNELS = {"encoder_channels": [4, 4, 8, 8, 8], "decoder_channels": [8, 8, 8, 4, 4]}
 
 
-def parser(doc: str, **kwargs) -> argparse.ArgumentParser:
-    """The benchmark's parser (described by its docstring's first line), with `--smoke`."""
-    out = argparse.ArgumentParser(description=doc.splitlines()[0], **kwargs)
+def parser(doc: str) -> argparse.ArgumentParser:
+    """The benchmark's parser, with `--smoke`; `--help` prints its docstring `doc`."""
+    first, _, rest = doc.partition("\n")
+    out = argparse.ArgumentParser(description=first, epilog=rest.strip() or None,
+                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     out.add_argument("--smoke", action="store_true", help=SMOKE_HELP)
     return out
 
 
+def repro(stage: str) -> str:
+    """How to make an output of `stage`."""
+    return f"run `dvc repro {stage}`"
+
+
 def missing(needs: dict[Path, str]) -> dict[Path, str]:
-    """{path: the command that makes it} of the `needs` not on disk."""
+    """The `needs` {path: how to make it} whose path is not on disk."""
     return {Path(path): how for path, how in needs.items() if not Path(path).exists()}
 
 
 def say_needs(bench: str, absent: dict[Path, str]) -> None:
     for path, how in absent.items():
-        print(f"{bench}: needs {path}: run `{how}`", flush=True)
+        print(f"{bench}: needs {path}: {how}", flush=True)
 
 
 def require(bench: str, needs: dict[Path, str]) -> None:
-    """Exit NEEDS_PIPELINE, naming every missing path of `needs` {path: the command that makes
-    it, e.g. "dvc repro train_ynet"}; return when all are there."""
+    """Exit NEEDS_PIPELINE, naming every missing path of `needs` {path: how to make it, e.g.
+    `repro("train_ynet")`}; return when all are there."""
     absent = missing(needs)
     if absent:
         say_needs(bench, absent)
