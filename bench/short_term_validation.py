@@ -14,7 +14,7 @@ from pathlib import Path
 import pandas as pd
 import torch
 
-from bench.common import require
+from bench.common import repro, require
 from pipeline.runners.ynet_scoring import load_model
 from pipeline.config import ShortTermModelsParams, ShortTermParams, load_profile, load_section, read_params
 from pipeline.data.semantic_maps import load_semantic_maps
@@ -51,10 +51,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def load_from_arguments(args: argparse.Namespace, bench: str) -> TrainedOnValidation:
     """`load` as the options say; exits naming the `dvc repro` that makes what is missing."""
     checkpoint = args.checkpoint or Path(f"checkpoints/short_term/{args.dataset}_ynet/best.pt")
-    needs = {checkpoint: f"dvc repro train_short_term_ynet@{args.dataset}",
-             table_path(args.windows, args.dataset): "dvc repro short_term_windows"}
+    needs = {checkpoint: repro(f"train_short_term_ynet@{args.dataset}"),
+             table_path(args.windows, args.dataset): repro("short_term_windows")}
     if args.dataset == "sdd":
-        needs.update({SDD_MAPS: "dvc repro semantic_maps", args.sdd: "dvc repro fetch@sdd"})
+        needs.update({SDD_MAPS: repro("semantic_maps"), args.sdd: repro("fetch@sdd")})
     require(bench, needs)
     return load(args.dataset, checkpoint, args.windows, args.sdd, args.windows_sample)
 

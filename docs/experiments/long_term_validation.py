@@ -8,12 +8,13 @@ Validation windows only: experiments that choose a setting never look at the tes
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
-from bench.common import require
+from bench.common import repro, require
 from pipeline.config import (CwsParams, EvalParams, TtstParams, WindowParams, load_profile,
                              load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
@@ -48,9 +49,9 @@ def load(args: argparse.Namespace) -> TrainedOnValidation:
     """The model on `args.threads` threads and its validation windows (`windows.n_past` observed
     steps), with the `cpu` profile's scoring params from params.yaml. Exits naming the `dvc repro`
     that makes whatever of them is missing."""
-    require(Path(__file__).stem, {args.windows: "dvc repro windows", args.model: "dvc repro train_ynet",
-                                  args.semantic_maps: "dvc repro semantic_maps",
-                                  args.sdd: "dvc repro fetch@sdd"})
+    require(Path(sys.argv[0]).stem, {args.windows: repro("windows"), args.model: repro("train_ynet"),
+                                     args.semantic_maps: repro("semantic_maps"),
+                                     args.sdd: repro("fetch@sdd")})
     params = read_params()
     table = pd.read_parquet(args.windows)
     val = to_arrays(table[table["split"] == "val"], load_section(WindowParams, "windows", params).n_past)
