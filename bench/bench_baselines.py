@@ -6,6 +6,9 @@ each model: seconds per training epoch (validation included) and seconds to draw
 for the test windows; with the profile's epochs, the projected training time at this size.
 
     python bench/bench_baselines.py [--profile cpu] [--epochs 2] [--threads 1] [--params params.yaml]
+                                    [--smoke]
+
+`--smoke`: 16 / 4 / 6 windows and one epoch (seconds: the code path, not a measurement).
 
 Settings: the models' sections of `params.yaml` (`sgan`, `pecnet`) for the chosen profile, or the
 config dataclasses' defaults (the paper settings) where a section is missing.
@@ -13,8 +16,8 @@ config dataclasses' defaults (the paper settings) where a section is missing.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -22,11 +25,16 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline.harness import baselines
-from pipeline.config import load_profile, read_params
-from pipeline.data.window_table import WindowArrays
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench import common  # noqa: E402
+from pipeline.harness import baselines  # noqa: E402
+from pipeline.config import load_profile, read_params  # noqa: E402
+from pipeline.data.window_table import WindowArrays  # noqa: E402
 
 N_PAST, N_FUTURE = 5, 30
+SIZES = {"train": 1000, "val": 150, "test": 382}  # the authors' release
+SMOKE_SIZES = {"train": 16, "val": 4, "test": 6}
 
 
 def synthetic_windows(n: int, split: str, seed: int) -> WindowArrays:
@@ -59,24 +67,27 @@ def configs(params_path: Path, profile: str) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = common.parser(__doc__)
     parser.add_argument("--profile", default="cpu", choices=("cpu", "paper"))
     parser.add_argument("--epochs", type=int, default=2, help="epochs timed per model")
     parser.add_argument("--threads", type=int, default=1)
     parser.add_argument("--params", type=Path, default=Path("params.yaml"))
     args = parser.parse_args(argv)
+    if args.smoke:
+        args.threads = 1
     torch.set_num_threads(args.threads)
-    train, val, test = (synthetic_windows(n, s, i) for i, (n, s) in
-                        enumerate([(1000, "train"), (150, "val"), (382, "test")]))
+    epochs = 1 if args.smoke else args.epochs
+    sizes = SMOKE_SIZES if args.smoke else SIZES
+    train, val, test = (synthetic_windows(n, s, i) for i, (s, n) in enumerate(sizes.items()))
     print(f"t_f = {N_FUTURE}: {len(train)} train / {len(val)} val / {len(test)} test windows, "
           f"{args.threads} thread(s), profile {args.profile}")
     print(f"{'model':<18}{'s/epoch':>9}{'epochs':>8}{'train s':>9}{'eval s (K=20)':>15}")
     for name, config in configs(args.params, args.profile).items():
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            model = baselines.get(name).fit(train, val, dataclasses.replace(config, epochs=args.epochs),
+            model = baselines.get(name).fit(train, val, dataclasses.replace(config, epochs=epochs),
                                             Path(tmp), seed=0)
-            per_epoch = (time.perf_counter() - t0) / args.epochs
+            per_epoch = (time.perf_counter() - t0) / epochs
             t0 = time.perf_counter()
             model.predict(test, 20, torch.Generator().manual_seed(0))
             evaluation = time.perf_counter() - t0

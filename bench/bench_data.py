@@ -2,18 +2,25 @@
 
 The authors' long-term preprocessing of the same 23 raw videos into 62 windows took
 1.07 / 1.20 / 1.42 s (min / median / max) on this machine (../shared/reference/data-facts.md).
-Run from the repository root: `python bench/bench_data.py [--mirror ../shared/data]`.
+Run from the repository root: `python bench/bench_data.py [--mirror ../shared/data] [--repeats 5]
+[--smoke]`; `--smoke` times each step once (a few seconds on the real mirror).
 """
 
-import argparse
 import statistics
+import sys
 import time
 from pathlib import Path
 
-from pipeline.config import WindowParams
-from pipeline.data.checksums import read_manifest
-from pipeline.data.tracks import build_tracks
-from pipeline.data.windows import cut_pieces, cut_windows, raw_windows, release_windows
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench import common  # noqa: E402
+from pipeline.config import WindowParams  # noqa: E402
+from pipeline.data.checksums import read_manifest  # noqa: E402
+from pipeline.data.tracks import build_tracks  # noqa: E402
+from pipeline.data.windows import cut_pieces, cut_windows, raw_windows, release_windows  # noqa: E402
+
+MIRROR_HOW = ("the data mirror (params.yaml fetch.locations); or `dvc repro fetch` and "
+              "--mirror data/raw")
 
 
 def timed(fn, repeats: int) -> tuple[list[float], object]:
@@ -30,10 +37,14 @@ def show(name: str, times: list[float]) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = common.parser(__doc__)
     parser.add_argument("--mirror", type=Path, default=Path("../shared/data"))
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
+    if args.smoke:
+        args.repeats = 1
+    common.require("bench_data", {args.mirror / "sdd": MIRROR_HOW,
+                                  args.mirror / "ynet-release": MIRROR_HOW})
     params = WindowParams()
     print(f"{'what (min / median / max)':<55} {'':>22}")
     times, tracks = timed(lambda: build_tracks(args.mirror / "sdd"), args.repeats)

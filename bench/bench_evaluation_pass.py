@@ -8,7 +8,10 @@ semantic maps (`data/semantic_maps`) and the trained model (`data/ynet/model.pt`
 test windows evenly spaced over the table's order, the active profile's `eval` section and `ttst` /
 `cws`: the settings `evaluation_sequence` samples (main rounds, ablation, K_e x K_a grid).
 
-    python bench/bench_evaluation_pass.py [--windows 24] [--threads 2]
+    python bench/bench_evaluation_pass.py [--windows 24] [--threads 2] [--smoke]
+
+`--smoke`: an untrained Y-net of a few channels on 4 synthetic windows of one 256 x 256 scene, K_e 4
+and a K_a grid of 1 and 2 (seconds: the code path, not a measurement); no data needed.
 
 It re-executes itself with glibc malloc told to keep freed memory, as the stages run (see
 bench/bench_ynet.py). The machine may be shared: the load average is printed with the times.
@@ -16,7 +19,7 @@ bench/bench_ynet.py). The machine may be shared: the load average is printed wit
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -28,42 +31,69 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench import common  # noqa: E402
+from bench.bench_profiles import N_FUTURE, N_PAST, SMOKE_IMAGE_HW, synthetic_windows  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
                              load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
-from pipeline.data.window_table import to_arrays  # noqa: E402
+from pipeline.data.window_table import WindowArrays, to_arrays  # noqa: E402
+from pipeline.data.ynet_data import SceneWindows, group_by_scene  # noqa: E402
+from pipeline.device import conv_layout  # noqa: E402
 from pipeline.runners.ynet_scoring import (load_for_scoring, predict_samplings,  # noqa: E402
                                            sequence_settings, setting_samplings)
-from pipeline.runners.ynet_training import image_sizes  # noqa: E402
+from pipeline.runners.ynet_training import YnetSettings, image_sizes  # noqa: E402
+from ynet.model import YNet  # noqa: E402
 
 WINDOWS = Path("data/windows/release_tf30.parquet")
 MAPS = Path("data/semantic_maps")
 MODEL = Path("data/ynet/model.pt")
 SDD = Path("data/raw/sdd")
+NEEDS = {WINDOWS: common.repro("windows"), MAPS: common.repro("semantic_maps"),
+         MODEL: common.repro("train_ynet"), SDD: common.repro("fetch@sdd")}
+
+
+def trained(params: dict, windows: int, threads: int
+            ) -> tuple[YNet, YnetSettings, list[SceneWindows], WindowArrays]:
+    """The trained model and `windows` test windows evenly spaced over the table's order."""
+    table = pd.read_parquet(WINDOWS)
+    table = table[table["split"] == "test"]
+    ids = table["window_id"].unique()
+    ids = ids[np.unique(np.linspace(0, len(ids) - 1, min(windows, len(ids))).astype(int))]
+    test = to_arrays(table[table["window_id"].isin(ids)], params["windows"]["n_past"])
+    model, settings, scenes = load_for_scoring(MODEL, test, load_semantic_maps(MAPS),
+                                               image_sizes(SDD, set(test.scene_id)), threads)
+    return model, settings, scenes, test
+
+
+def untrained(params: dict, windows: int, threads: int
+              ) -> tuple[YNet, YnetSettings, list[SceneWindows], WindowArrays]:
+    """`--smoke`'s stand-in: a tiny untrained model of the profile and synthetic windows."""
+    torch.set_num_threads(threads)
+    torch.set_flush_denormal(True)
+    settings = common.tiny_ynet(load_profile(YnetSettings, "ynet", params))
+    test, maps, sizes = synthetic_windows(windows, 0, SMOKE_IMAGE_HW)
+    model = conv_layout(YNet(settings.model_config(N_PAST, N_FUTURE)).eval(), torch.device("cpu"))
+    return model, settings, group_by_scene(test, maps, sizes, settings.resize), test
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = common.parser(__doc__)
     parser.add_argument("--windows", type=int, default=24, help="test windows timed")
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args()
     keep_freed_memory()
-    missing = [p for p in (WINDOWS, MAPS, MODEL, SDD) if not p.exists()]
-    if missing:  # `make bench` runs every bench: say what is missing and go on
-        print(f"bench_evaluation_pass: missing {', '.join(map(str, missing))}; run "
-              "`dvc repro train_ynet` first")
-        return
     params = read_params()
     evaluation = load_profile(EvalParams, "eval", params)
     ttst, cws = load_section(TtstParams, "ttst", params), load_section(CwsParams, "cws", params)
-    table = pd.read_parquet(WINDOWS)
-    table = table[table["split"] == "test"]
-    ids = table["window_id"].unique()
-    ids = ids[np.unique(np.linspace(0, len(ids) - 1, min(args.windows, len(ids))).astype(int))]
-    test = to_arrays(table[table["window_id"].isin(ids)], params["windows"]["n_past"])
-    model, settings, scenes = load_for_scoring(MODEL, test, load_semantic_maps(MAPS),
-                                               image_sizes(SDD, set(test.scene_id)), args.threads)
+    if args.smoke:
+        args.threads = 1
+        evaluation = dataclasses.replace(evaluation, k_e=4, k_a=1, rounds=1, ka_grid_k_e=[4],
+                                         ka_grid_k_a=[1, 2], batch_size=2)
+        model, settings, scenes, test = untrained(params, 4, args.threads)
+    else:
+        common.require("bench_evaluation_pass", NEEDS)
+        model, settings, scenes, test = trained(params, args.windows, args.threads)
     samplings = setting_samplings(sequence_settings(evaluation, ttst, cws), evaluation.seed)
     n = len(test)
     warm = [scenes[0].subset(np.arange(1))]

@@ -13,6 +13,7 @@ steps hold no set-up.
 
     python bench/bench_profiles.py [--device auto|cpu|cuda] [--threads 2] [--steps 20] [--windows 32]
                                    [--profiles cpu,paper] [--data data] [--skip-stages] [--stage-steps 8]
+                                   [--smoke]
 
 Printed per profile: samples/s and windows/s; achieved TFLOP/s, from the model's FLOPs counted
 for the timed shapes (`torch.utils.flop_counter`: convolutions and matmuls of the forward and
@@ -27,7 +28,9 @@ On 2 CPU cores the defaults take several minutes (the `paper` Y-net: about 0.5 t
 the U-Net 6 s a step); `--steps 3 --windows 4 --stage-steps 1` is the quick look (about 2.5 min
 on one thread). A busy 2-core machine runs two threads many times slower than one (OpenMP threads
 wait for each other): compare --threads 1 and 2 there. On a GPU, `bench/gpu_check.py` runs this
-and more in one command.
+and more in one command. `--smoke`: a Y-net of a few channels on a 256 x 256 scene, 2 steps and 2
+windows per profile at K_e 4, the stages' rates on one step or epoch (seconds: the code path, not
+a measurement).
 
 It re-executes itself with glibc malloc told to keep freed memory, as the stages run (dvc.yaml's
 GLIBC_TUNABLES; see bench/bench_ynet.py).
@@ -35,7 +38,7 @@ GLIBC_TUNABLES; see bench/bench_ynet.py).
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import os
 import resource
 import sys
@@ -48,9 +51,9 @@ from torch.utils.flop_counter import FlopCounterMode
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import projection  # noqa: E402
+from bench import common, projection  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from bench.stage_rates import stage_rates  # noqa: E402
+from bench.stage_rates import smoke_params, stage_rates  # noqa: E402
 from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
                              load_section, read_params)
 from pipeline.data.window_table import WindowArrays  # noqa: E402
@@ -66,6 +69,7 @@ from ynet.model import YNet, YNetConfig  # noqa: E402
 from ynet.sampling import SamplingOptions  # noqa: E402
 
 IMAGE_HW = (2048, 1664)  # original pixels of the synthetic scene
+SMOKE_IMAGE_HW = (256, 256)
 N_PAST, N_FUTURE = 5, 30
 
 
@@ -276,7 +280,7 @@ def gib(n: int) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = common.parser(__doc__)
     parser.add_argument("--device", default="auto")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--steps", type=int, default=20, help="timed training steps per profile")
@@ -290,6 +294,9 @@ def main() -> None:
                         help="segmentation steps per timed epoch (two epochs after a warm-up one)")
     args = parser.parse_args()
     keep_freed_memory()
+    if args.smoke:
+        args.steps, args.windows, args.threads = 2, 2, 1
+    image_hw = SMOKE_IMAGE_HW if args.smoke else IMAGE_HW
     torch.set_num_threads(args.threads)
     torch.set_flush_denormal(True)
     device = select_device(args.device, purpose=SCORING)
@@ -305,11 +312,14 @@ def main() -> None:
     rates, memory_what = {}, ""
     for profile in args.profiles.split(","):
         settings, evaluation = profile_settings(params, profile, args.threads)
+        if args.smoke:
+            settings = common.tiny_ynet(settings)
+            evaluation = dataclasses.replace(evaluation, k_e=4, k_a=1, batch_size=2)
         select_device(args.device, purpose=TRAINING)  # each measured as its stages run
-        train = TrainingBench(settings, device, args.steps).measure()
+        train = TrainingBench(settings, device, args.steps, image_hw).measure()
         select_device(args.device, purpose=SCORING)
         options = main_options(evaluation, params)
-        score = ScoringBench(settings, evaluation, device, args.windows, options).measure()
+        score = ScoringBench(settings, evaluation, device, args.windows, options, image_hw).measure()
         rates[profile] = train["rate"]
         memory_what = train["peak_memory"]["what"]
         hw = "x".join(map(str, train["map"]))
@@ -327,7 +337,8 @@ def main() -> None:
     if not args.skip_stages:
         select_device(args.device, purpose=TRAINING)
         print("\npaper segmentation, S-GAN and PECNet training (bench/stage_rates.py):")
-        for key, rate in stage_rates(params, device, segmentation_steps=args.stage_steps).items():
+        for key, rate in stage_rates(smoke_params(params) if args.smoke else params, device,
+                                     smoke=args.smoke, segmentation_steps=args.stage_steps).items():
             measured[key] = rate["rate"]
             print(f"  {key:13s} {rate['rate']:10.2f} {rate['unit']}  ({rate['what']}; "
                   f"{rate['epochs']} epoch(s) in {rate['seconds']:.1f} s after one warm-up epoch)")

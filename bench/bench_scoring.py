@@ -10,21 +10,29 @@ Two cases:
 Predictions are the truth plus noise growing with the step; masks are random blocks of classes.
 The machine is usually shared: times are an upper bound; the load average is printed with them.
 
-    OMP_NUM_THREADS=1 python bench/bench_scoring.py [--repeats 3]
+    OMP_NUM_THREADS=1 python bench/bench_scoring.py [--repeats 3] [--smoke]
+
+`--smoke`: two scenes of a few agents per case, one run (seconds: the code path, not a measurement).
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
+import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.stats import gaussian_kde
 
-from pipeline.harness import scoring
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench import common  # noqa: E402
+from pipeline.harness import scoring  # noqa: E402
+
+SMOKE = {"scenes": 2, "agents": 6, "max_windows": 40}  # what --smoke changes in each case
 
 
 @dataclass(frozen=True)
@@ -74,16 +82,18 @@ def synthetic_case(name: str, *, scenes: int, agents: int, track_steps: int, fra
                 np.stack(frames)[pick], masks, to_pixels, miss, collide)
 
 
-def cases() -> list[Case]:
-    """The two sizes; thresholds: miss 60 px / 2 m, collision 10 px / 0.2 m."""
-    long_term = synthetic_case("long-term SDD", scenes=17, agents=120, track_steps=80,
-                               frames_per_scene=600, n_past=5, n_future=30, stride=35,
-                               speed=20.0, extent=1500.0, k=20, noise=4.0, max_windows=2000,
-                               seed=0, to_pixels=1.0, miss=60.0, collide=10.0)
-    univ = synthetic_case("ETH/UCY univ", scenes=2, agents=425, track_steps=48,
-                          frames_per_scene=500, n_past=8, n_future=12, stride=1,
-                          speed=0.5, extent=15.0, k=20, noise=0.08, max_windows=24_334,
-                          seed=1, to_pixels=50.0, miss=2.0, collide=0.2)
+def cases(smoke: bool = False) -> list[Case]:
+    """The two sizes (`smoke`: a few agents each); thresholds: miss 60 px / 2 m, collision 10 px /
+    0.2 m."""
+    small = SMOKE if smoke else {}
+    long_term = synthetic_case("long-term SDD", **{
+        "scenes": 17, "agents": 120, "track_steps": 80, "frames_per_scene": 600, "n_past": 5,
+        "n_future": 30, "stride": 35, "speed": 20.0, "extent": 1500.0, "k": 20, "noise": 4.0,
+        "max_windows": 2000, "seed": 0, "to_pixels": 1.0, "miss": 60.0, "collide": 10.0, **small})
+    univ = synthetic_case("ETH/UCY univ", **{
+        "scenes": 2, "agents": 425, "track_steps": 48, "frames_per_scene": 500, "n_past": 8,
+        "n_future": 12, "stride": 1, "speed": 0.5, "extent": 15.0, "k": 20, "noise": 0.08,
+        "max_windows": 24_334, "seed": 1, "to_pixels": 50.0, "miss": 2.0, "collide": 0.2, **small})
     return [long_term, univ]
 
 
@@ -109,12 +119,15 @@ def scipy_kde_seconds(case: Case, steps: int = 1000) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = common.parser(__doc__)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
+    if args.smoke:
+        args.repeats = 1
     forbidden = scoring.class_values()
     print(f"load average {os.getloadavg()[0]:.2f}; median of {args.repeats} runs, seconds")
-    for case in cases():
+    kde_steps = 20 if args.smoke else 1000
+    for case in cases(args.smoke):
         n, k, t, _ = case.pred.shape
         print(f"\n{case.name}: {n} windows x K {k} x {t} steps, {len(case.masks)} scenes")
         pixels = case.pred * case.to_pixels
@@ -136,8 +149,8 @@ def main() -> None:
             seconds, results[name] = timed(fn, args.repeats)
             total += seconds
             print(f"  {name:<34}{seconds:8.3f}")
-        print(f"  {'(kde_nll, one scipy KDE per step)':<34}{scipy_kde_seconds(case):8.3f}"
-              "  extrapolated from 1,000 steps")
+        print(f"  {'(kde_nll, one scipy KDE per step)':<34}{scipy_kde_seconds(case, kde_steps):8.3f}"
+              f"  extrapolated from {kde_steps:,} steps")
         per_window, _ = scoring.trajectory_scores(case.pred, case.truth, case.miss)
         seconds, _ = timed(lambda: scoring.aggregate(per_window, case.scene), args.repeats)
         total += seconds

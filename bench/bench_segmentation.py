@@ -6,30 +6,40 @@ Adam step) with the settings of params.yaml, on the real training scenes when st
 machine is usually shared, so the load average is printed next to the numbers.
 
     python bench/bench_segmentation.py [--sdd data/raw/sdd] [--labels data/labels] [--profile paper]
+                                       [--steps 10] [--threads 1] [--smoke]
+
+`--smoke`: random scenes, 64 x 64 crops in batches of 2, one timed step (seconds: the code path,
+not a measurement).
 """
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import os
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from pipeline.device import cpu_has_bf16
-from pipeline.data.labels import read_index
-from pipeline.config import SegmentationParams, load_profile, read_params
-from pipeline.runners.segmentation import epoch_batches, load_training_scenes, train_step, unet_config
-from ynet.segmentation import UNet
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench import common  # noqa: E402
+from pipeline.device import cpu_has_bf16  # noqa: E402
+from pipeline.data.labels import read_index  # noqa: E402
+from pipeline.config import SegmentationParams, load_profile, read_params  # noqa: E402
+from pipeline.runners.segmentation import (epoch_batches, load_training_scenes,  # noqa: E402
+                                           train_step, unet_config)
+from ynet.segmentation import UNet  # noqa: E402
 
 N_TRAIN_VIDEOS = 30  # TrajNet train videos, for the epoch estimate on synthetic scenes
 
 
-def scenes_for_bench(sdd: Path, labels: Path, params: SegmentationParams):
-    """(scenes, names, where): the real training scenes if available, else random ones."""
-    if (labels / "index.json").exists() and sdd.exists():
+def scenes_for_bench(sdd: Path, labels: Path, params: SegmentationParams, real: bool = True):
+    """(scenes, names, where): the real training scenes if available (and `real`), else random
+    ones."""
+    if real and (labels / "index.json").exists() and sdd.exists():
         index = read_index(labels)
         names = sorted(n for n, v in index["videos"].items() if v["split"] == "train")
         scenes = load_training_scenes(sdd, labels, names, params.downsample, params.pad_multiple)
@@ -38,11 +48,12 @@ def scenes_for_bench(sdd: Path, labels: Path, params: SegmentationParams):
     scenes = [(rng.integers(0, 255, (512, 384, 3), dtype=np.uint8),
                rng.integers(1, 6, (512, 384), dtype=np.uint8)) for _ in range(4)]
     names = [f"synthetic_{k}" for k in range(N_TRAIN_VIDEOS)]
-    return scenes, names, f"random 512x384 scenes ({labels}/index.json not found)"
+    why = f"{labels}/index.json not found" if real else "--smoke"
+    return scenes, names, f"random 512x384 scenes ({why})"
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = common.parser(__doc__)
     parser.add_argument("--sdd", type=Path, default=Path("data/raw/sdd"))
     parser.add_argument("--labels", type=Path, default=Path("data/labels"))
     parser.add_argument("--profile", choices=("cpu", "paper"), default=None,
@@ -54,9 +65,12 @@ def main() -> None:
     if args.profile:
         raw["profile"] = args.profile
     params = load_profile(SegmentationParams, "segmentation", raw)
+    if args.smoke:
+        params = dataclasses.replace(params, crop=64, batch_size=2)
+        args.steps, args.threads = 1, 1
     torch.set_num_threads(args.threads)
 
-    scenes, names, where = scenes_for_bench(args.sdd, args.labels, params)
+    scenes, names, where = scenes_for_bench(args.sdd, args.labels, params, real=not args.smoke)
     batches = epoch_batches(scenes, params, epoch=0)
     start = time.perf_counter()
     data = [next(batches) for _ in range(min(args.steps + 2, len(scenes) * params.crops_per_image

@@ -12,21 +12,34 @@ fixed seeded sample of that benchmark's *validation* windows (never the test set
     python bench/bench_short_term_scoring.py --dataset univ --windows-sample 400 --batch-sizes 4 16 64
 
 (ETH/UCY's univ alone has 24,334 test windows: its scoring dominates the short-term stages.)
+`--smoke`: an untrained short-term Y-net of a few channels (the profile's crops) on 6 synthetic
+windows of two 1024 x 1024 scenes, K_e 4, batches of 2 and 4 (seconds: the code path, not a
+measurement); no checkpoint needed.
 """
 
 from __future__ import annotations
 
-import argparse
 import cProfile
 import os
 import pstats
+import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
-import short_term_validation  # bench/: run as `python bench/bench_short_term_scoring.py`
-from pipeline.config import EvalParams
-from pipeline.runners.short_term import ynet_options
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench import common, short_term_validation  # noqa: E402
+from bench.bench_training_precision import SMOKE_IMAGE_HW, synthetic_windows  # noqa: E402
+from pipeline.config import (EvalParams, ShortTermModelsParams, ShortTermParams,  # noqa: E402
+                             load_profile, load_section, read_params)
+from pipeline.data.ynet_data import group_by_scene  # noqa: E402
+from pipeline.runners.short_term import ynet_options, ynet_settings  # noqa: E402
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
+from pipeline.runners.ynet_training import YnetSettings  # noqa: E402
+from ynet.model import YNet  # noqa: E402
 
 STEPS = {  # printed name: function name in the profile (file suffix, function)
     "input crops and distance maps": ("ynet_data.py", "window_inputs"),
@@ -50,15 +63,35 @@ def cumulative_seconds(stats: pstats.Stats) -> dict[str, float]:
     return found
 
 
+def untrained(dataset: str, windows: int) -> short_term_validation.TrainedOnValidation:
+    """`--smoke`'s stand-in for a trained checkpoint and its validation windows: an untrained
+    short-term Y-net of the profile's settings with a few channels, and synthetic windows."""
+    params = read_params()
+    stage = load_profile(ShortTermModelsParams, "short_term_models", params)
+    lengths = load_section(ShortTermParams, "short_term", params)
+    classes = 6 if dataset == "sdd" else 3
+    settings = ynet_settings(common.tiny_ynet(load_profile(YnetSettings, "ynet", params)), stage,
+                             dataset, lengths.n_future, classes)
+    val, maps, sizes = synthetic_windows(windows, lengths.n_past, lengths.n_future, classes,
+                                         image_hw=SMOKE_IMAGE_HW)
+    torch.manual_seed(settings.seed)
+    model = YNet(settings.model_config(lengths.n_past, lengths.n_future)).eval()
+    scenes = group_by_scene(val, maps, sizes, settings.resize)
+    return short_term_validation.TrainedOnValidation(model, settings, stage, val, scenes, None)
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = common.parser(__doc__)
     short_term_validation.add_arguments(parser)
     parser.add_argument("--k", type=int, default=20)
     parser.add_argument("--batch-sizes", type=int, nargs="+", default=[4, 16, 64])
     args = parser.parse_args()
-    trained = short_term_validation.load_from_arguments(args, "bench_short_term_scoring")
-    if trained is None:
-        return
+    if args.smoke:
+        args.k, args.batch_sizes = 4, [2, 4]
+        trained = untrained(args.dataset, 6)
+        torch.set_num_threads(1)
+    else:
+        trained = short_term_validation.load_from_arguments(args, "bench_short_term_scoring")
     model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
                                             trained.val, trained.scenes)
     # as the stage samples

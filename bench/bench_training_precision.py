@@ -13,12 +13,14 @@ synthetic windows (no data needed), with each profile's settings from params.yam
 With `--threads 1`, against the default 2, it shows what one core does alone: whether two
 trainings side by side on one thread each would beat one after the other on two.
 
-    python bench/bench_training_precision.py [--steps 12] [--threads 2]
+    python bench/bench_training_precision.py [--steps 12] [--threads 2] [--smoke]
+
+`--smoke`: Y-nets of a few channels on 1024 x 1024 scenes, one timed step per case (seconds: the
+code path, not a measurement).
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import sys
 import time
@@ -29,6 +31,7 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench import common  # noqa: E402
 from bench.bench_profiles import IMAGE_HW  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.device import cpu_has_bf16  # noqa: E402
@@ -40,11 +43,15 @@ from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch
 from ynet.model import YNet  # noqa: E402
 
 
-def synthetic_windows(n: int, n_past: int, n_future: int, classes: int, seed: int = 0):
-    """`n` straight walks split over two scenes with random `classes`-class maps (original
-    pixels)."""
+SMOKE_IMAGE_HW = (1024, 1024)
+
+
+def synthetic_windows(n: int, n_past: int, n_future: int, classes: int, seed: int = 0,
+                      image_hw: tuple[int, int] = IMAGE_HW):
+    """`n` straight walks split over two scenes of `image_hw` with random `classes`-class maps
+    (original pixels)."""
     rng = np.random.default_rng(seed)
-    height, width = IMAGE_HW
+    height, width = image_hw
     start = rng.uniform([200, 200], [width - 800, height - 800], size=(n, 1, 2))
     xy = start + np.arange(n_past + n_future)[None, :, None] * rng.uniform(-12, 18, size=(n, 1, 2))
     scene_id = np.where(np.arange(n) < n // 2, "bench_0", "bench_1")
@@ -53,14 +60,15 @@ def synthetic_windows(n: int, n_past: int, n_future: int, classes: int, seed: in
                           split=np.array(["train"] * n))
     maps = {name: rng.dirichlet(np.ones(classes), size=(height // 4, width // 4)).astype(np.float32)
             .transpose(2, 0, 1) for name in ("bench_0", "bench_1")}
-    return arrays, maps, {name: IMAGE_HW for name in maps}
+    return arrays, maps, {name: image_hw for name in maps}
 
 
-def samples_per_second(settings: YnetSettings, steps: int, n_past: int, n_future: int) -> float:
+def samples_per_second(settings: YnetSettings, steps: int, n_past: int, n_future: int,
+                       image_hw: tuple[int, int] = IMAGE_HW) -> float:
     """Training samples per second over `steps` optimiser steps after one warm-up step."""
     settings = dataclasses.replace(settings, steps_per_epoch=0)
     arrays, maps, sizes = synthetic_windows(settings.batch_size * (steps + 1), n_past, n_future,
-                                            settings.semantic_classes)
+                                            settings.semantic_classes, image_hw=image_hw)
     scenes = group_by_scene(arrays, maps, sizes, settings.resize)
     torch.manual_seed(settings.seed)
     model = YNet(settings.model_config(n_past, n_future))
@@ -74,16 +82,21 @@ def samples_per_second(settings: YnetSettings, steps: int, n_past: int, n_future
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = common.parser(__doc__)
     parser.add_argument("--steps", type=int, default=12)
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args()
+    image_hw = SMOKE_IMAGE_HW if args.smoke else IMAGE_HW
+    if args.smoke:
+        args.steps, args.threads = 1, 1
     keep_freed_memory()
     torch.set_num_threads(args.threads)
     torch.set_flush_denormal(True)
     params = read_params()
     cpu = {**params, "profile": "cpu"}
     long_term = load_profile(YnetSettings, "ynet", cpu)
+    if args.smoke:
+        long_term = dataclasses.replace(long_term, **common.TINY_CHANNELS)
     short_params = load_profile(ShortTermModelsParams, "short_term_models", cpu)
     short_term = ynet_settings(long_term, short_params, "sdd", 12, 6)
     ethucy = ynet_settings(long_term, short_params, "eth", 12, 3)  # its maps: 3 classes
@@ -100,7 +113,7 @@ def main() -> None:
     print("CPU bf16 hardware (AVX-512 BF16 or AMX): "
           f"{'yes' if cpu_has_bf16() else 'no, so the bf16 cases run float32 (pipeline.device.use_bf16)'}")
     for name, (settings, n_past, n_future) in cases.items():
-        rate = samples_per_second(settings, args.steps, n_past, n_future)
+        rate = samples_per_second(settings, args.steps, n_past, n_future, image_hw)
         print(f"  {name:46s} {rate:6.1f} samples/s")
 
 

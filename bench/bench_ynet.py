@@ -3,7 +3,7 @@
 Not a test: prints numbers. Random weights and a random 6-class semantic map, padded 512 x 416 input
 (deathCircle_0 at resize 0.25), long-term SDD config (n_p 5, n_f 30, waypoints 14 and 29).
 
-    python bench/bench_ynet.py --threads 2 --repeats 3 [--profile cpu|paper]
+    python bench/bench_ynet.py --threads 2 --repeats 3 [--profile cpu|paper] [--smoke]
 
 Timings are wall-clock min / median / max over `--repeats` runs after one warm-up. On a shared
 machine they are noisy: the load average is printed with each line. With 2 threads on 2 cores that
@@ -15,26 +15,33 @@ By default glibc hands every large tensor back to the kernel when it is freed, s
 step faults its whole working set in again: at batch 8 that is 2.7 million page faults and half of
 the step's time. Run training and evaluation stages with the same setting (--no-malloc-tuning
 shows the difference).
+
+`--smoke`: a Y-net of a few channels on a 64 x 64 map, batches of 1 and 2, K_e 4 and K_a 1 and 2,
+one repeat (seconds: the code path, not a measurement; no authors' figures beside it).
 """
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import os
 import resource
 import statistics
 import sys
 import time
+from pathlib import Path
 
 import torch
 
-from pipeline.config import load_profile, read_params
-from pipeline.runners.ynet_training import YnetSettings
-from ynet.heatmaps import (distance_maps, gaussian_heatmaps, padded_size, scene_and_past,
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bench import common  # noqa: E402
+from pipeline.config import load_profile, read_params  # noqa: E402
+from pipeline.runners.ynet_training import YnetSettings  # noqa: E402
+from ynet.heatmaps import (distance_maps, gaussian_heatmaps, padded_size, scene_and_past,  # noqa: E402
                            upstream_max_distance)
-from ynet.loss import ynet_loss
-from ynet.model import YNet, YNetConfig
-from ynet.sampling import SamplingOptions, predict, sample_waypoints, softargmax
+from ynet.loss import ynet_loss  # noqa: E402
+from ynet.model import YNet, YNetConfig  # noqa: E402
+from ynet.sampling import SamplingOptions, predict, sample_waypoints, softargmax  # noqa: E402
 
 KEEP_FREED_MEMORY = "glibc.malloc.mmap_threshold=4294967296:glibc.malloc.trim_threshold=17179869184"
 AUTHORS = {
@@ -159,7 +166,7 @@ def eval_breakdown(cfg, options, height, width, max_distance) -> dict[str, float
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = common.parser(__doc__)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--height", type=int, default=512)
@@ -174,12 +181,15 @@ def main():
     if not args.no_malloc_tuning:
         keep_freed_memory()
 
+    if args.smoke:
+        args.threads = 1
     torch.set_num_threads(args.threads)
     # Adam's second-moment estimates of these tiny BCE gradients fall into denormal floats, which
     # make x86 arithmetic ~10x slower (~1 s per optimiser step here); flushing them costs no accuracy.
     torch.set_flush_denormal(not args.keep_denormals)
     cfg = YNetConfig(obs_len=5, pred_len=30, semantic_classes=6, waypoints=(14, 29))
     h, w, resize, batches = args.height, args.width, 0.25, [(1, False), (1, True), (8, True)]
+    k_e, k_as = 20, (1, 5)
     max_distance = upstream_max_distance(resize)
     if args.profile:
         settings = load_profile(YnetSettings, "ynet", {**read_params(), "profile": args.profile})
@@ -191,6 +201,11 @@ def main():
         max_distance = settings.max_distance
         cfg = settings.model_config(5, 30)
         print(f"profile {args.profile}: resize {resize}, batch {settings.batch_size}")
+    if args.smoke:
+        h, w, batches, args.repeats = 64, 64, [(1, False), (1, True), (2, True)], 1
+        k_e, k_as = 4, (1, 2)
+        cfg = dataclasses.replace(cfg, **{k: tuple(v) for k, v in common.TINY_CHANNELS.items()})
+    authors_apply = resize == 0.25 and not args.smoke  # the authors' figures: their map only
     n_params = sum(p.numel() for p in YNet(cfg).parameters())
     print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, input 1 x {cfg.in_channels} x {h} x {w}, "
           f"{n_params:,} parameters, flush denormals {not args.keep_denormals}, "
@@ -202,26 +217,26 @@ def main():
         for batch, cl in batches:
             times = bench_training(cfg, batch, h, w, args.repeats, cl, max_distance)
             layout = "channels_last" if cl else "NCHW         "
-            authors = AUTHORS["train_b1" if batch == 1 else "train_b8"] if resize == 0.25 else "n/a"
+            authors = AUTHORS["train_b1" if batch == 1 else "train_b8"] if authors_apply else "n/a"
             print(f"  batch {batch} {layout}: {summary(times)}  ({batch / statistics.median(times):.2f} samples/s)"
                   f"   authors: {authors}   peak RSS so far {peak_rss_gib():.1f} GiB   {load()}")
         print()
 
     if not args.skip_eval:
-        print("Evaluation per test window, TTST + CWS, K_e 20 (input built, encoder, goal decoder, sampling, "
+        print(f"Evaluation per test window, TTST + CWS, K_e {k_e} (input built, encoder, goal decoder, sampling, "
               "trajectory decoder)")
-        for k_a in (1, 5):
-            options = SamplingOptions(K_e=20, K_a=k_a)
+        for k_a in k_as:
+            options = SamplingOptions(K_e=k_e, K_a=k_a)
             for bf16 in (False, True):
                 times = bench_eval(cfg, options, h, w, args.repeats, max_distance, bf16)
-                authors = AUTHORS["eval_ka1" if k_a == 1 else "eval_ka5"] if resize == 0.25 else "n/a"
+                authors = AUTHORS["eval_ka1" if k_a == 1 else "eval_ka5"] if authors_apply else "n/a"
                 precision = "bf16 autocast" if bf16 else "fp32         "
                 print(f"  K_a {k_a} {precision}: {summary(times)}  ({1 / statistics.median(times):.2f} windows/s)"
                       f"   authors (fp32): {authors}   {load()}")
         print("  (the authors' evaluation figures are per window over the SDD test scenes, about 152,000 px on"
               f" average at resize 0.25; these are on the {h} x {w} = {h * w:,} px map)")
-        print("\nBreakdown of one fp32 window, K_e 20, K_a 1:")
-        parts = eval_breakdown(cfg, SamplingOptions(K_e=20, K_a=1), h, w, max_distance)
+        print(f"\nBreakdown of one fp32 window, K_e {k_e}, K_a 1:")
+        parts = eval_breakdown(cfg, SamplingOptions(K_e=k_e, K_a=1), h, w, max_distance)
         total = sum(parts.values())
         for name, seconds in parts.items():
             print(f"  {name:45s} {seconds:6.2f} s  {100 * seconds / total:4.0f}%")

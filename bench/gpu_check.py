@@ -45,7 +45,7 @@ from bench import projection  # noqa: E402
 from bench.bench_profiles import (IMAGE_HW, ScoringBench, TrainingBench, gib,  # noqa: E402
                                   main_options, profile_settings, warmup_rows)
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from bench.stage_rates import stage_rates  # noqa: E402
+from bench.stage_rates import smoke_params, stage_rates  # noqa: E402
 from pipeline.config import read_params  # noqa: E402
 from pipeline.device import SCORING, TRAINING, describe, select_device, synchronize  # noqa: E402
 
@@ -266,11 +266,7 @@ def main(argv: list[str] | None = None) -> None:
 
     def other_stages() -> dict:
         select_device(args.device, purpose=TRAINING)
-        stage_params = params
-        if smoke:  # a small U-Net crop: the paper one takes seconds a step on a CPU
-            segmentation = {**params["segmentation"]["paper"], "crop": 64, "batch_size": 2}
-            stage_params = {**params, "segmentation": {**params["segmentation"], "paper": segmentation}}
-        rates = stage_rates(stage_params, device, smoke=smoke)
+        rates = stage_rates(smoke_params(params) if smoke else params, device, smoke=smoke)
         for key, rate in rates.items():
             report.say(f"  {key:13s} {rate['rate']:10.2f} {rate['unit']} ({rate['what']})")
         return rates

@@ -1,7 +1,8 @@
-"""A trained short-term Y-net and a fixed sample of its benchmark's validation windows, for benches.
+"""A trained short-term Y-net and a fixed sample of its benchmark's validation windows.
 
-Shared by `bench_short_term_crop.py` and `bench_short_term_steps.py` (not a bench itself: `make
-bench` runs `bench_*.py` only). Validation windows only: benches never look at the test set.
+Shared by `bench_short_term_scoring.py` and the experiments `docs/experiments/short_term_crop.py`,
+`short_term_paths.py`, `short_term_steps.py` and `short_term_ttst.py` (not a benchmark itself:
+`make bench` runs `bench_*.py` only). Validation windows only: they never look at the test set.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from pathlib import Path
 import pandas as pd
 import torch
 
+from bench.common import repro, require
 from pipeline.runners.ynet_scoring import load_model
 from pipeline.config import ShortTermModelsParams, ShortTermParams, load_profile, load_section, read_params
 from pipeline.data.semantic_maps import load_semantic_maps
@@ -22,6 +24,8 @@ from pipeline.runners.ynet_training import YnetSettings, image_sizes
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import SceneWindows, group_by_scene
 from ynet.model import YNet
+
+SDD_MAPS = Path("data/semantic_maps")
 
 
 @dataclass
@@ -44,13 +48,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--windows-sample", type=int, default=300)
 
 
-def load_from_arguments(args: argparse.Namespace, bench: str) -> TrainedOnValidation | None:
-    """`load` as the options say; None (after saying what to run) when there is no checkpoint."""
+def load_from_arguments(args: argparse.Namespace, bench: str) -> TrainedOnValidation:
+    """`load` as the options say; exits naming the `dvc repro` that makes what is missing."""
     checkpoint = args.checkpoint or Path(f"checkpoints/short_term/{args.dataset}_ynet/best.pt")
-    if not checkpoint.exists():
-        print(f"{bench}: no checkpoint at {checkpoint}; run "
-              f"`dvc repro train_short_term_ynet@{args.dataset}` first")
-        return None
+    needs = {checkpoint: repro(f"train_short_term_ynet@{args.dataset}"),
+             table_path(args.windows, args.dataset): repro("short_term_windows")}
+    if args.dataset == "sdd":
+        needs.update({SDD_MAPS: repro("semantic_maps"), args.sdd: repro("fetch@sdd")})
+    require(bench, needs)
     return load(args.dataset, checkpoint, args.windows, args.sdd, args.windows_sample)
 
 
@@ -66,7 +71,7 @@ def load(dataset: str, checkpoint: Path, windows: Path, sdd: Path, sample: int) 
     model, settings = load_model(checkpoint)
     torch.set_num_threads(settings.threads)
     if scenes_info is None:
-        maps = load_semantic_maps(Path("data/semantic_maps"))
+        maps = load_semantic_maps(SDD_MAPS)
         sizes = image_sizes(sdd, set(val.scene_id))
     else:
         maps = load_semantic_maps(windows / ETHUCY_SCENES)

@@ -84,6 +84,13 @@ def baseline_rate(name: str, config, device: torch.device, n_train: int, n_val: 
                     f"batch {config.batch_size}"}
 
 
+def smoke_params(params: dict) -> dict:
+    """`params` with the `paper` U-Net on 64 x 64 crops in batches of 2: a smoke run's (the paper
+    crop takes seconds a step on a CPU)."""
+    segmentation = {**params["segmentation"]["paper"], "crop": 64, "batch_size": 2}
+    return {**params, "segmentation": {**params["segmentation"], "paper": segmentation}}
+
+
 @contextlib.contextmanager
 def torch_threads(n: int):
     """torch on `n` CPU threads inside, as before outside."""

@@ -1,11 +1,11 @@
-"""The TTST grid of `bench/bench_short_term_ttst.py`: the profile's setting first, none twice."""
+"""The TTST grid of `docs/experiments/short_term_ttst.py`: the profile's setting first, none twice."""
 
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "experiments"))
 
-from bench_short_term_ttst import ttst_grid  # noqa: E402
+from short_term_ttst import ttst_grid  # noqa: E402
 
 
 def test_ttst_grid_puts_the_profile_first_and_drops_repeats():

@@ -1,18 +1,20 @@
 """The trained long-term Y-net, the release's validation windows and the `cpu` scoring params, for
-benches.
+the experiments beside it.
 
-Shared by `bench_long_term_bf16.py` and `bench_long_term_ttst.py` (not a bench itself: `make
-bench` runs `bench_*.py` only). Validation windows only: benches never look at the test set.
+Shared by `long_term_bf16_scoring.py` and `long_term_ttst.py` (not an experiment itself).
+Validation windows only: experiments that choose a setting never look at the test set.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
+from bench.common import repro, require
 from pipeline.config import (CwsParams, EvalParams, TtstParams, WindowParams, load_profile,
                              load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
@@ -45,7 +47,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load(args: argparse.Namespace) -> TrainedOnValidation:
     """The model on `args.threads` threads and its validation windows (`windows.n_past` observed
-    steps), with the `cpu` profile's scoring params from params.yaml."""
+    steps), with the `cpu` profile's scoring params from params.yaml. Exits naming the `dvc repro`
+    that makes whatever of them is missing."""
+    require(Path(sys.argv[0]).stem, {args.windows: repro("windows"), args.model: repro("train_ynet"),
+                                     args.semantic_maps: repro("semantic_maps"),
+                                     args.sdd: repro("fetch@sdd")})
     params = read_params()
     table = pd.read_parquet(args.windows)
     val = to_arrays(table[table["split"] == "val"], load_section(WindowParams, "windows", params).n_past)

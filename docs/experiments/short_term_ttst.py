@@ -8,9 +8,9 @@ pass (each batch is encoded once; every setting draws with the same seed, as sco
 prints best-of-K ADE / FDE as scoring computes them (FDE of the sampled goals) in the benchmark's
 unit (original pixels; metres for ETH/UCY) beside the profile's own setting, averaged over
 `--rounds` sampling seeds. A setting is worth adopting only if it wins on validation for
-more than one training seed.
+more than one training seed. Written up in docs/profiles.md (the TTST settings).
 
-    python bench/bench_short_term_ttst.py --dataset sdd --windows-sample 0 \
+    python docs/experiments/short_term_ttst.py --dataset sdd --windows-sample 0 \
         --temperatures 0.5 1 2 --thresholds 0.001 0.01 0.05
 """
 
@@ -19,14 +19,18 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-import short_term_validation  # bench/: run as `python bench/bench_short_term_ttst.py`
-from pipeline.harness.metrics import window_errors
-from pipeline.runners.short_term import benchmark_of, to_metres, unit_of, ynet_options
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
+
+from bench import short_term_validation  # noqa: E402
+from pipeline.harness.metrics import window_errors  # noqa: E402
+from pipeline.runners.short_term import benchmark_of, to_metres, unit_of, ynet_options  # noqa: E402
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
 
 
 def ttst_grid(temperatures: list[float], thresholds: list[float],
@@ -45,9 +49,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=1,
                         help="sampling seeds per setting (seed, seed + 1, ...), errors averaged")
     args = parser.parse_args()
-    trained = short_term_validation.load_from_arguments(args, "bench_short_term_ttst")
-    if trained is None:
-        return
+    trained = short_term_validation.load_from_arguments(args, "short_term_ttst")
     stage, val, settings = trained.stage, trained.val, trained.settings
     benchmark = benchmark_of(args.dataset)
     grid = ttst_grid(args.temperatures, args.thresholds,

@@ -9,8 +9,10 @@ threshold of the grid, the params' own first, all in one pass (each batch is enc
 setting draws with the same seeds, as scoring would), and prints ADE / FDE (px) as scoring
 computes them, averaged over `--rounds` sampling seeds, with the spread between the rounds: a
 setting's gain means something only where it is larger than that.
+Written up in docs/experiments/cpu-profile-against-the-paper.md.
 
-    python bench/bench_long_term_ttst.py --temperatures 1 1.4 1.8 2.4 --thresholds 0.002 --rounds 3
+    python docs/experiments/long_term_ttst.py --temperatures 1 1.4 1.8 2.4 --thresholds 0.002 \
+        --rounds 3
 """
 
 from __future__ import annotations
@@ -22,14 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
 
-from bench import long_term_validation  # noqa: E402
-from bench.bench_short_term_ttst import ttst_grid  # noqa: E402
+import long_term_validation  # noqa: E402  (beside this script)
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.config import TtstParams  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options  # noqa: E402
+from short_term_ttst import ttst_grid  # noqa: E402  (beside this script)
 
 
 def main() -> None:

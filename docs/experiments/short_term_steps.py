@@ -7,22 +7,27 @@ path (softargmax heatmaps, K = 1) decoded
 - towards the true goal (the trajectory decoder alone),
 and of constant velocity, plus the mean peak of the trajectory decoder's per-step softmax: a flat
 heatmap's softargmax drifts to the centre of the map (or crop) whatever the step.
+Written up in docs/profiles.md (where the `cpu` short-term Y-net loses accuracy).
 
-    python bench/bench_short_term_steps.py --dataset sdd --windows-sample 300
+    python docs/experiments/short_term_steps.py --dataset sdd --windows-sample 300
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import numpy as np
 import torch
 
-import short_term_validation  # bench/: run as `python bench/bench_short_term_steps.py`
-from pipeline.runners.ynet_scoring import PAD_CLASS
-from pipeline.data.ynet_data import window_inputs
-from ynet.heatmaps import distance_maps
-from ynet.sampling import softargmax
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
+
+from bench import short_term_validation  # noqa: E402
+from pipeline.runners.ynet_scoring import PAD_CLASS  # noqa: E402
+from pipeline.data.ynet_data import window_inputs  # noqa: E402
+from ynet.heatmaps import distance_maps  # noqa: E402
+from ynet.sampling import softargmax  # noqa: E402
 
 
 def constant_velocity(past: torch.Tensor, n_future: int) -> torch.Tensor:
@@ -63,9 +68,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     short_term_validation.add_arguments(parser)
     args = parser.parse_args()
-    trained = short_term_validation.load_from_arguments(args, "bench_short_term_steps")
-    if trained is None:
-        return
+    trained = short_term_validation.load_from_arguments(args, "short_term_steps")
     results = step_errors(trained)
     print(f"{args.dataset}: {len(trained.val)} val windows, K = 1, original pixels; "
           "error per future step")

@@ -9,10 +9,12 @@ three times, same model and same input order:
 - bfloat16 trajectory decoder, seed s (same goals and waypoints: only the decoder's precision moves);
 - float32, seed s + 1 (another evaluation round: the spread a reader already sees as "±").
 
-bf16 is acceptable when its change of ADE is small beside the round-to-round change. FDE comes from
+bf16 is acceptable when its change of ADE is small beside the round-to-round change.
+Written up in docs/profiles.md (row "Y-net long-term scoring"). FDE comes from
 the goals, which bf16 never touches, so it must be identical.
 
-    python bench/bench_long_term_bf16.py [--threads 2] [--windows data/windows/release_tf30.parquet]
+    python docs/experiments/long_term_bf16_scoring.py [--threads 2] \
+        [--windows data/windows/release_tf30.parquet]
 """
 
 from __future__ import annotations
@@ -26,9 +28,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
 
-from bench import long_term_validation  # noqa: E402
+import long_term_validation  # noqa: E402  (beside this script)
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.device import cpu_has_bf16  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402

@@ -5,22 +5,27 @@ crops in the cpu profile) and a fixed seeded sample of that benchmark's *validat
 the test set), scores them at K_e on each crop side (0 = the whole scene; a convolutional model
 runs on any size) and prints best-of-K ADE / FDE (original pixels), seconds per window and the
 share of windows whose future leaves the crop.
+Written up in docs/profiles.md (row "short-term Y-net: what the model sees").
 
-    python bench/bench_short_term_crop.py --dataset sdd --crops 64 96 0 --windows-sample 300
+    python docs/experiments/short_term_crop.py --dataset sdd --crops 64 96 0 --windows-sample 300
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-import short_term_validation  # bench/: run as `python bench/bench_short_term_crop.py`
-from pipeline.runners.short_term import ynet_options
-from pipeline.runners.ynet_scoring import predict_scenes
-from pipeline.harness.metrics import window_errors
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
+
+from bench import short_term_validation  # noqa: E402
+from pipeline.runners.short_term import ynet_options  # noqa: E402
+from pipeline.runners.ynet_scoring import predict_scenes  # noqa: E402
+from pipeline.harness.metrics import window_errors  # noqa: E402
 
 
 def outside_share(past: np.ndarray, future: np.ndarray, resize: float, crop: int,
@@ -38,9 +43,7 @@ def main() -> None:
     parser.add_argument("--crops", type=int, nargs="+", default=[64, 96, 0])
     parser.add_argument("--k", type=int, default=20)
     args = parser.parse_args()
-    trained = short_term_validation.load_from_arguments(args, "bench_short_term_crop")
-    if trained is None:
-        return
+    trained = short_term_validation.load_from_arguments(args, "short_term_crop")
     model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
                                             trained.val, trained.scenes)
     options = ynet_options(settings, args.dataset, args.k)  # as evaluate_short_term_ynet samples

@@ -7,8 +7,9 @@ e.g. `-S seed=1`), *unclipped*, and prints per epoch the median, 90th and 99th p
 largest global L2 norm of the gradients each optimiser step applies (read by a step pre-hook). With
 batches of 2 a few steps can push the weights hundreds of times harder than the rest: that tail is
 what `grad_clip_norm` cuts, and its 90th percentile is about where the `cpu` profile put the bound.
+Written up in docs/profiles.md (gradient clipping).
 
-    python bench/bench_grad_norms.py --dataset sdd --epochs 3 -S seed=1
+    python docs/experiments/short_term_grad_norms.py --dataset sdd --epochs 3 -S seed=1
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import numpy as np
 import torch
 from torch.optim.optimizer import register_optimizer_step_pre_hook
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 from rerun_plan import parse_override  # noqa: E402  (tools/: `-S key=value` as dvc exp run)
 
 from pipeline.config import ShortTermModelsParams, ShortTermParams, load_profile, load_section, read_params  # noqa: E402

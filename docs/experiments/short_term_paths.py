@@ -8,21 +8,26 @@ temperature and threshold, one seed) and compares, best of K, in original pixels
 Where the straight lines win, the trajectory decoder loses accuracy that the goals already had. It
 also prints the error per future step of the best path (chosen on ADE) of each, and how far each
 decoded path ends from the goal it was given.
+Written up in docs/profiles.md (where the K = 20 error comes from).
 
-    python bench/bench_short_term_paths.py --dataset sdd --windows-sample 0
+    python docs/experiments/short_term_paths.py --dataset sdd --windows-sample 0
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-import short_term_validation  # bench/: run as `python bench/bench_short_term_paths.py`
-from pipeline.harness.metrics import step_errors, window_errors
-from pipeline.runners.short_term import ynet_options
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
+
+from bench import short_term_validation  # noqa: E402
+from pipeline.harness.metrics import step_errors, window_errors  # noqa: E402
+from pipeline.runners.short_term import ynet_options  # noqa: E402
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
 
 
 def straight_paths(last_observed: np.ndarray, goals: np.ndarray, n_future: int) -> np.ndarray:
@@ -37,9 +42,7 @@ def main() -> None:
     short_term_validation.add_arguments(parser)
     parser.add_argument("--k", type=int, default=20)
     args = parser.parse_args()
-    trained = short_term_validation.load_from_arguments(args, "bench_short_term_paths")
-    if trained is None:
-        return
+    trained = short_term_validation.load_from_arguments(args, "short_term_paths")
     stage, val, settings = trained.stage, trained.val, trained.settings
     options = ynet_options(stage, args.dataset, args.k)  # as evaluate_short_term_ynet samples
     began = time.perf_counter()
