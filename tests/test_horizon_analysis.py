@@ -349,7 +349,7 @@ def test_findings_read_the_plateau_off_the_record():
 
 
 def test_figure_colours_are_the_report_s():
-    from pipeline.report.page import MODEL_COLOURS
+    from pipeline.report.common import MODEL_COLOURS
     assert MODEL_COLOURS.items() <= report.COLOURS.items()
 
 

@@ -23,15 +23,21 @@ import numpy as np
 import pytest
 import yaml
 
-from pipeline.report import page as report
+from pipeline.report.figures import load_qualitative
+from pipeline.report.lookups import Absent, Measured, load_metrics, lookup
+from pipeline.report.page import animation_section
+from pipeline.report.run_provenance import (git_state, is_output, lock_outputs, porcelain_paths,
+                                            read_lock)
+from pipeline.report.tables import (Column, build_tables, compare, find_long_term,
+                                    headline_metrics, summarize)
 from pipeline.stages import animations as animations_stage
 from pipeline.stages import report as report_stage
-from pipeline.config import ParamsError, from_dict
+from pipeline.config import ParamsError, ReportParams, from_dict
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER = REPO / "pipeline" / "report" / "paper_values.yaml"
 PAPER_TEX = REPO.parent / "shared" / "paper" / "ynet-paper.tex"
-BANDS = report.ReportParams(close=0.05, far=0.20)
+BANDS = ReportParams(close=0.05, far=0.20)
 HORIZONS = [5, 10, 15, 20, 30, 40, 50, 60]
 ETHUCY_SCENES = ["eth", "hotel", "univ", "zara1", "zara2"]
 
@@ -442,18 +448,18 @@ def test_every_paper_value_is_printed_in_the_paper():
 @pytest.mark.parametrize("ours, expected_band", [(104.0, "close"), (96.0, "close"), (110.0, "mid"),
                                                  (81.0, "mid"), (130.0, "far"), (60.0, "far")])
 def test_relative_difference_bands(ours, expected_band):
-    cell = report.compare(100.0, report.Measured(ours, 1.0, 3, "x"), BANDS)
+    cell = compare(100.0, Measured(ours, 1.0, 3, "x"), BANDS)
     assert cell.kind == "measured"
     assert cell.band == expected_band
     assert math.isclose(cell.diff, (ours - 100.0) / 100.0)
 
 
 def test_report_params_are_typed():
-    assert from_dict(report.ReportParams, {"close": 0.05, "far": 0.2}, "report") == BANDS
+    assert from_dict(ReportParams, {"close": 0.05, "far": 0.2}, "report") == BANDS
     with pytest.raises(ParamsError, match="unknown key"):
-        from_dict(report.ReportParams, {"close": 0.05, "far": 0.2, "clsoe": 1}, "report")
+        from_dict(ReportParams, {"close": 0.05, "far": 0.2, "clsoe": 1}, "report")
     with pytest.raises(ParamsError, match="close < far"):
-        from_dict(report.ReportParams, {"close": 0.3, "far": 0.2}, "report")
+        from_dict(ReportParams, {"close": 0.3, "far": 0.2}, "report")
 
 
 def test_every_cell_is_measured_quoted_or_explained(project):
@@ -508,8 +514,8 @@ def test_a_missing_metrics_file_is_explained(project):
     html = run_report(project).read_text()
     reason = f"stage not yet run: {project / 'metrics'}/ynet_eval.json missing"
     assert reason in html
-    tables = report.build_tables(yaml.safe_load(PAPER.read_text()),
-                                 report.load_metrics(project / "metrics", "metrics"), BANDS)
+    tables = build_tables(yaml.safe_load(PAPER.read_text()),
+                          load_metrics(project / "metrics", "metrics"), BANDS)
     ttst = next(t for t in tables if t.key == "ttst")
     sdd_cells = [row.cells[i] for row in ttst.rows for i, c in enumerate(ttst.columns) if c.group == "SDD"]
     assert {c.ours.reason for c in sdd_cells} == {"stage not yet run: metrics/ynet_eval.json missing"}
@@ -518,18 +524,18 @@ def test_a_missing_metrics_file_is_explained(project):
 def test_a_status_record_shows_its_reason(project):
     html = full_project(project).read_text()
     assert "inD not provided: set data.ind.path" in html
-    store = report.load_metrics(project / "metrics", "metrics")
-    cell = report.find_long_term(store, {"dataset": "ind", "model": "pecnet", "k_a": 1}, "ade")
-    assert isinstance(cell, report.Absent) and cell.kind == "status"
+    store = load_metrics(project / "metrics", "metrics")
+    cell = find_long_term(store, {"dataset": "ind", "model": "pecnet", "k_a": 1}, "ade")
+    assert isinstance(cell, Absent) and cell.kind == "status"
 
 
 def test_a_file_for_another_horizon_is_not_compared(project):
     files = data_metrics() | model_metrics()
     files["baselines/sgan_tf30.json"] = baseline("sgan", 20, 50.0)
     write_metrics(project / "metrics", files)
-    store = report.load_metrics(project / "metrics", "metrics")
-    cell = report.find_long_term(store, {"dataset": "sdd", "model": "sgan", "k_a": 1}, "ade")
-    assert isinstance(cell, report.Absent) and "t_f = 20 s, not 30 s" in cell.reason
+    store = load_metrics(project / "metrics", "metrics")
+    cell = find_long_term(store, {"dataset": "sdd", "model": "sgan", "k_a": 1}, "ade")
+    assert isinstance(cell, Absent) and "t_f = 20 s, not 30 s" in cell.reason
 
 
 def test_only_data_stages_give_a_valid_page(project):
@@ -568,11 +574,11 @@ def test_a_broken_qualitative_file_is_reported(project, tmp_path):
     arrays = dict(np.load(path))
     del arrays["goal_heatmap_0"]
     np.savez(path, **arrays)
-    loaded = report.load_qualitative(path)
-    assert isinstance(loaded, report.Absent) and "missing goal_heatmap" in loaded.reason
+    loaded = load_qualitative(path)
+    assert isinstance(loaded, Absent) and "missing goal_heatmap" in loaded.reason
     path.write_bytes(b"")  # a file cut short to nothing: explained, not a crash
-    loaded = report.load_qualitative(path)
-    assert isinstance(loaded, report.Absent) and "unreadable" in loaded.reason
+    loaded = load_qualitative(path)
+    assert isinstance(loaded, Absent) and "unreadable" in loaded.reason
 
 
 def test_animations_are_shown_per_benchmark_and_a_missing_one_says_so(project):
@@ -587,12 +593,12 @@ def test_animations_are_shown_per_benchmark_and_a_missing_one_says_so(project):
             f"{project / 'data/predictions/short_term/sdd/ynet_qualitative.npz'} missing") in section
 
     folder = project / "reports/figures/animations"
-    shown = report.animation_section(folder, project / "reports")["benchmarks"][0]["windows"]
+    shown = animation_section(folder, project / "reports")["benchmarks"][0]["windows"]
     assert [(w["src"], w["found"]) for w in shown] == [("figures/animations/long_term_0.webp", True)]
     (folder / "long_term_0.webp").unlink()
     assert "long_term_0.webp missing: re-run stage animations" in run_report(project).read_text()
     (folder / "index.json").write_text('{"benchmarks": [{"windows": 3}]}')
-    absent = report.animation_section(folder, project / "reports")["absent"]
+    absent = animation_section(folder, project / "reports")["absent"]
     assert absent.kind == "invalid" and "index.json: not the animations index (TypeError" in absent.reason
 
 
@@ -855,9 +861,9 @@ def test_a_single_round_shows_no_spread(project):
         for metric in ("ade", "fde"):
             files["short_term/sdd.json"]["models"]["ynet"][k][metric]["std"] = 0.0
     write_metrics(project / "metrics", files)
-    store = report.load_metrics(project / "metrics", "metrics")
-    one = report.lookup(store, "short_term/sdd.json", ("models", "ynet", "k20", "ade"))
-    three = report.lookup(store, "ynet_eval.json", ("main", "ade"))
+    store = load_metrics(project / "metrics", "metrics")
+    one = lookup(store, "short_term/sdd.json", ("models", "ynet", "k20", "ade"))
+    three = lookup(store, "ynet_eval.json", ("main", "ade"))
     assert (one.std, one.rounds) == (None, 1) and (three.std, three.rounds) == (0.4, 3)
     table = parse(run_report(project).read_text())
     cells = [" ".join(c["text"].split()) for c in comparison_cells(table)]
@@ -906,7 +912,7 @@ def distinct_metrics() -> dict[str, object]:
     return files
 
 
-def expected_cell(files: dict, table: str, row: str, column: "report.Column") -> dict | None:
+def expected_cell(files: dict, table: str, row: str, column: "Column") -> dict | None:
     """The metrics node {"ade": {"mean"}, ...} a cell must show, found from what the reader sees."""
     if table == "sdd_short":
         model = MODEL_OF_LABEL.get(column.label)
@@ -930,7 +936,7 @@ def test_every_cell_shows_the_value_its_key_names(project):
     files = distinct_metrics()
     write_metrics(project / "metrics", data_metrics() | model_metrics() | files)
     paper = yaml.safe_load(PAPER.read_text())
-    tables = report.build_tables(paper, report.load_metrics(project / "metrics", "metrics"), BANDS)
+    tables = build_tables(paper, load_metrics(project / "metrics", "metrics"), BANDS)
     checked = 0
     for table in tables:
         for row in table.rows:
@@ -946,7 +952,7 @@ def test_every_cell_shows_the_value_its_key_names(project):
                 if expected is None:
                     assert cell.ours is None, where  # a model this pipeline does not train
                     continue
-                assert isinstance(cell.ours, report.Measured), (where, cell.ours)
+                assert isinstance(cell.ours, Measured), (where, cell.ours)
                 assert cell.ours.mean == pytest.approx(expected, abs=1e-12), where
                 if table.key in ("sdd_long", "ttst"):
                     assert cell.joint.mean == node[f"{metric}_joint"]["mean"], where
@@ -1050,30 +1056,30 @@ def test_provenance_counts_code_and_params_changes_never_outputs(tmp_path):
         (tmp_path / rel).write_text(text)
     git("add", "-A")
     git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "c")
-    outputs = [*report.lock_outputs(report.read_lock(tmp_path / "dvc.lock")), "reports/index.html"]
+    outputs = [*lock_outputs(read_lock(tmp_path / "dvc.lock")), "reports/index.html"]
     assert outputs == ["metrics/ynet_eval.json", "data/tracks", "reports/index.html"]
-    assert report.git_state(tmp_path, outputs)["dirty"] is False
+    assert git_state(tmp_path, outputs)["dirty"] is False
 
     (tmp_path / "metrics/ynet_eval.json").write_text('{"ade": 1}')
     (tmp_path / "dvc.lock").write_text(yaml.safe_dump({**lock, "schema": "2.0"}))
     (tmp_path / "reports/index.html").write_text("<p>new")
     (tmp_path / "data/tracks").mkdir(parents=True)
     (tmp_path / "data/tracks/t.parquet").write_text("rows")
-    state = report.git_state(tmp_path, outputs)
+    state = git_state(tmp_path, outputs)
     assert state["dirty"] is False and state["code_changes"] == [] and state["output_changes"] == 4
 
     (tmp_path / "params.yaml").write_text("a: 2\n")
     (tmp_path / "pipeline/a.py").write_text("x = 2\n")
     (tmp_path / "pipeline/b.py").write_text("y = 1\n")
-    state = report.git_state(tmp_path, outputs)
+    state = git_state(tmp_path, outputs)
     assert state["dirty"] is True and state["params_changed"] is True
     assert sorted(state["code_changes"]) == ["pipeline/a.py", "pipeline/b.py"]
-    assert report.porcelain_paths(["R  old.py -> new.py", " M a b.py", "?? data/"]) == [
+    assert porcelain_paths(["R  old.py -> new.py", " M a b.py", "?? data/"]) == [
         "new.py", "a b.py", "data/"]
-    assert report.is_output("data/", ["data/tracks"]) and not report.is_output("database.py", ["data"])
-    assert report.is_output("reports/figures/.report.tmp2484.kn91exfz/", ["reports/figures/report"])
-    assert report.is_output("metrics/.ynet_eval.json.tmp77", ["metrics/ynet_eval.json"])
-    assert not report.is_output("pipeline/.page.py.tmp77", ["metrics/ynet_eval.json"])
+    assert is_output("data/", ["data/tracks"]) and not is_output("database.py", ["data"])
+    assert is_output("reports/figures/.report.tmp2484.kn91exfz/", ["reports/figures/report"])
+    assert is_output("metrics/.ynet_eval.json.tmp77", ["metrics/ynet_eval.json"])
+    assert not is_output("pipeline/.page.py.tmp77", ["metrics/ynet_eval.json"])
 
 
 def test_metrics_of_another_profile_or_k_are_shown_but_not_compared(project):
@@ -1082,8 +1088,8 @@ def test_metrics_of_another_profile_or_k_are_shown_but_not_compared(project):
     files["baselines/sgan_tf30.json"] = {**baseline("sgan", 30, 60.0), "k": 3}
     write_metrics(project / "metrics", files)
     paper = yaml.safe_load(PAPER.read_text())
-    store = report.load_metrics(project / "metrics", "metrics")
-    tables = {t.key: t for t in report.build_tables(paper, store, BANDS, profile="cpu")}
+    store = load_metrics(project / "metrics", "metrics")
+    tables = {t.key: t for t in build_tables(paper, store, BANDS, profile="cpu")}
     long_term = tables["sdd_long"]
     kinds = {(c.group, c.label, c.sub): cell.kind for c, cell in zip(long_term.columns, long_term.rows[0].cells)}
     assert kinds[("SDD", "Y-net", "K_a = 1")] == kinds[("SDD", "Y-net", "K_a = 2")] == "mismatch"
@@ -1092,8 +1098,8 @@ def test_metrics_of_another_profile_or_k_are_shown_but_not_compared(project):
     assert sgan.diff is None and sgan.band == "" and sgan.ours.mean == 60.0
     assert sgan.ours.mismatch == "measured with k = 3; this cell is for k = 20"
     assert {cell.kind for cell in tables["ttst"].rows[0].cells[:3]} == {"mismatch"}
-    assert report.summarize(long_term).counts["mismatch"] == 2 * 4  # ADE, FDE x Y-net K_a 1, 2, 5 and S-GAN
-    headline = report.headline_metrics(tables.values(), [])
+    assert summarize(long_term).counts["mismatch"] == 2 * 4  # ADE, FDE x Y-net K_a 1, 2, 5 and S-GAN
+    headline = headline_metrics(tables.values(), [])
     assert not any("y_net" in name and "sdd" in name and "table3" in name for name in headline)
     html = run_report(project).read_text()  # the lock of the fixture says profile cpu
     assert "measured with profile = paper; this cell is for profile = cpu" in html

@@ -1,5 +1,5 @@
 """Where each paper number came from and how ours compares under its protocol
-(`pipeline.report.provenance`, used by `pipeline.report.page`): every paper cell's provenance, the
+(`pipeline.report.provenance`, used by `pipeline.report.tables`): every paper cell's provenance, the
 metric key each protocol reads from the stored-prediction scores ("not scored yet" without it), the
 cause of a difference, and the At-a-glance counts."""
 
@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from pipeline.report import page as report
+from pipeline.report.tables import (Cell, Column, Row, Table, annotated, build_tables, paper_cell,
+                                    summarize)
 from pipeline.report import provenance
 from pipeline.report.lookups import Absent, Measured, MetricsStore, load_metrics
 from tests.test_report import (BANDS, ETHUCY_SCENES, PAPER, beyond_model, data_metrics,  # noqa: F401
@@ -174,7 +175,7 @@ def test_stored_scores_are_read_under_the_protocol_or_say_not_scored():
         "scored at K_a = 1 only"
 
 
-def short_term_tables(root: Path, with_sequence: bool) -> dict[str, report.Table]:
+def short_term_tables(root: Path, with_sequence: bool) -> dict[str, Table]:
     files = data_metrics() | model_metrics()
     for scene in ETHUCY_SCENES:  # S-GAN and PECNet measured beside Y-net
         models = files[f"short_term/ethucy_{scene}.json"]["models"]
@@ -183,10 +184,10 @@ def short_term_tables(root: Path, with_sequence: bool) -> dict[str, report.Table
     files["beyond/short_term.json"] = scores(with_sequence)
     write_metrics(root / "metrics", files)
     store = load_metrics(root / "metrics", "metrics")
-    return {t.key: t for t in report.build_tables(RAW, store, BANDS)}
+    return {t.key: t for t in build_tables(RAW, store, BANDS)}
 
 
-def column_cells(table: report.Table, group: str, label: str) -> dict[str, report.Cell]:
+def column_cells(table: Table, group: str, label: str) -> dict[str, Cell]:
     i = next(i for i, c in enumerate(table.columns) if (c.group, c.label) == (group, label))
     return {row.label: row.cells[i] for row in table.rows}
 
@@ -308,7 +309,7 @@ def test_table_2_names_test_selection_as_the_cause_where_it_closes_the_gap(proje
                                                 "best_fde": {"value": 0.9, "epoch": 4}}}}
     write_metrics(project / "metrics", files)
     store = load_metrics(project / "metrics", "metrics")
-    table = {t.key: t for t in report.build_tables(RAW, store, BANDS)}["eth_ucy"]
+    table = {t.key: t for t in build_tables(RAW, store, BANDS)}["eth_ucy"]
     pecnet = column_cells(table, "PECNet", "ADE")
     assert pecnet["HOTEL"].test_selected.mean == 0.2
     assert pecnet["HOTEL"].why.verdict == "protocol"
@@ -332,17 +333,17 @@ def test_seed_range_needs_two_training_seeds():
 
 def test_glance_counts_each_compared_cell_once():
     def cell(paper, ours, own=None, source=QUOTED, seeds=None):
-        return report.paper_cell(paper, Measured(ours, None, 1, "x"), BANDS, source, "c",
-                                 None if own is None else Measured(own, None, 1, "y"), seeds=seeds)
+        return paper_cell(paper, Measured(ours, None, 1, "x"), BANDS, source, "c",
+                          None if own is None else Measured(own, None, 1, "y"), seeds=seeds)
     noted = provenance.CellSource("quoted", "b paper", "unknown", NOTE)
     cells = (cell(10.0, 11.0), cell(10.0, 13.0, own=11.5), cell(10.0, 13.0, own=13.0),
              cell(10.0, 13.0, seeds=(9.0, 14.0, 3), source=AUTHORS), cell(10.0, 5.0, source=noted),
-             report.paper_cell(10.0, None, BANDS, QUOTED, "paper only"),
-             report.paper_cell(10.0, Absent("not run"), BANDS, AUTHORS, "absent"))
-    table = report.annotated(report.Table("t", 9, "T", "", "px", 2,
-                                          tuple(report.Column("g", f"m{i}") for i in range(7)),
-                                          (report.Row("ADE", cells),)))
-    summary = report.summarize(table)
+             paper_cell(10.0, None, BANDS, QUOTED, "paper only"),
+             paper_cell(10.0, Absent("not run"), BANDS, AUTHORS, "absent"))
+    table = annotated(Table("t", 9, "T", "", "px", 2,
+                            tuple(Column("g", f"m{i}") for i in range(7)),
+                            (Row("ADE", cells),)))
+    summary = summarize(table)
     assert summary.verdicts == {"match": 1, "protocol": 1, "seed spread": 1, "source": 1,
                                 "budget": 0, "unknown": 1}
     assert summary.counts["paper-only"] == 1 and summary.counts["absent"] == 1
@@ -356,10 +357,10 @@ def test_glance_counts_each_compared_cell_once():
 def test_the_page_shows_the_new_glance_counts_and_each_cells_cause(project):
     write_metrics(project / "metrics", data_metrics() | model_metrics())
     html = run_report(project).read_text()
-    tables = report.build_tables(RAW, load_metrics(project / "metrics", "metrics"), BANDS)
+    tables = build_tables(RAW, load_metrics(project / "metrics", "metrics"), BANDS)
     glance = html.split('<table class="glance-why">')[1].split("</table>")[0]
     for table in tables:
-        verdicts = report.summarize(table).verdicts
+        verdicts = summarize(table).verdicts
         row = glance.split(f'href="#{table.key}"')[1].split("</tr>")[0]
         numbers = [int(n) for n in re.findall(r'<td class="num">(\d+)</td>', row)]
         assert numbers == [verdicts["match"], verdicts["protocol"], verdicts["seed spread"],

@@ -20,15 +20,17 @@ import pytest
 import torch
 import yaml
 
-from pipeline.report import page as report
+from pipeline.report.figures import load_qualitative
+from pipeline.report.lookups import load_metrics
+from pipeline.report.tables import table_eth_ucy, table_sdd_short
 from pipeline.report.provenance import load_paper_values
 from pipeline.data.homography import metres_to_pixels
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
 from pipeline.io import IntermediateError
-from pipeline.config import (DATASETS, CwsParams, EvalParams, ShortTermModelsParams, TtstParams,
-                             YnetTraining, YnetTrainingByBenchmark, load_profile,
+from pipeline.config import (DATASETS, CwsParams, EvalParams, ReportParams, ShortTermModelsParams,
+                             TtstParams, YnetTraining, YnetTrainingByBenchmark, load_profile,
                              read_params)
 from pipeline.data.semantic_maps import quantise
 from pipeline.data.short_term import (MAP_CLASSES, EthUcySceneInfo, ethucy_scene_image,
@@ -472,7 +474,7 @@ def test_the_qualitative_windows_have_the_long_term_layout(project, dataset, cro
         assert 0 < reached <= (crop * crop if crop else height * width)
     if dataset == "eth":  # the camera frame in the grid's top-left corner, black beyond it
         assert (arrays["scene_image_0"][0, 0] == 255).all() and (arrays["scene_image_0"][-1, -1] == 0).all()
-    loaded = report.load_qualitative(path)
+    loaded = load_qualitative(path)
     assert len(loaded.examples) == 3 and loaded.problems == ()
 
 
@@ -576,14 +578,14 @@ def test_merged_files_have_the_report_layout(project):
 
 def test_the_report_shows_the_merged_numbers_as_measured(project):
     paper = load_paper_values(REPO / "pipeline" / "report" / "paper_values.yaml")
-    store = report.load_metrics(project / "metrics")
-    bands = report.ReportParams(close=0.05, far=0.2)
-    table1 = report.table_sdd_short(paper["sdd_short"], store, bands)
+    store = load_metrics(project / "metrics")
+    bands = ReportParams(close=0.05, far=0.2)
+    table1 = table_sdd_short(paper["sdd_short"], store, bands)
     kinds = {(c["model"], c["k"]): cell.kind for c, cell in
              zip(paper["sdd_short"]["columns"], table1.rows[0].cells)}
     assert kinds["ynet", 20] == kinds["ynet", 5] == kinds["pecnet", 20] == kinds["pecnet", 5] == "measured"
     assert kinds["sgan", 20] == "absent"  # not run in this fixture
-    table2 = report.table_eth_ucy(paper["eth_ucy"], store, bands)
+    table2 = table_eth_ucy(paper["eth_ucy"], store, bands)
     eth_row = table2.rows[paper["eth_ucy"]["scenes"].index("eth")]
     labels = [(col.group, col.label) for col in table2.columns]
     measured = {label for label, cell in zip(labels, eth_row.cells) if cell.kind == "measured"}

@@ -10,7 +10,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
 import timed_repro  # noqa: E402
 from pipeline.report.lookups import Absent  # noqa: E402
-from pipeline.report.page import stage_profile  # noqa: E402
+from pipeline.report.run_provenance import stage_profile  # noqa: E402
 
 DVC_OUTPUT = [  # (seconds, line) as `dvc repro` prints them
     (0.0, "Stage 'fetch' didn't change, skipping\n"),

@@ -24,7 +24,7 @@ from typing import Any
 from pipeline.io import write_with
 from pipeline.report.lookups import dig
 
-# Colours and labels of the report's long-term figures (pipeline.report.page MODEL_COLOURS and the
+# Colours and labels of the report's long-term figures (pipeline.report.common MODEL_COLOURS and the
 # models registry's constant velocity): a model keeps its colour across the report.
 COLOURS = {"ynet": "#d62728", "pecnet": "#1f77b4", "rpecnet": "#9467bd", "sgan": "#2ca02c",
            "constant_velocity": "#7f7f7f"}

@@ -25,7 +25,8 @@ from pathlib import Path
 
 from pipeline.config import ReportParams, load_section, read_params
 from pipeline.models import load_models
-from pipeline.report.page import Inputs, read_lock, write_report
+from pipeline.report.page import Inputs, write_report
+from pipeline.report.run_provenance import read_lock
 
 
 def main(argv: list[str] | None = None) -> None:
