@@ -21,7 +21,7 @@ from typing import Any, TypeVar
 
 import yaml
 
-from pipeline.data.splits import FOLD_TEST_SCENES, SDD_RAW_FPS, TRAIN_VIDEOS
+from pipeline.splits import FOLD_TEST_SCENES, SDD_RAW_FPS, TRAIN_VIDEOS
 
 T = TypeVar("T")
 

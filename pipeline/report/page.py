@@ -89,7 +89,7 @@ from pipeline.report.provenance import (PROTOCOL_KEYS, PROTOCOL_LABELS, PROTOCOL
                                         source_notes, test_selected_score, under_protocol,
                                         why_differs, with_provenance)
 from pipeline.io import atomic_dir, write_text
-from pipeline.data.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
+from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
 TEMPLATE = Path(__file__).parent / "templates" / "report.html.j2"
 METRICS = ("ade", "fde")
