@@ -35,7 +35,7 @@ from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
 from pipeline.data.window_table import to_arrays  # noqa: E402
 from pipeline.runners.ynet_scoring import (load_for_scoring, predict_samplings,  # noqa: E402
                                            sequence_settings, setting_samplings)
-from pipeline.runners.ynet_training import image_sizes  # noqa: E402
+from pipeline.data.ynet_data import image_sizes  # noqa: E402
 
 WINDOWS = Path("data/windows/release_tf30.parquet")
 MAPS = Path("data/semantic_maps")

@@ -28,8 +28,7 @@ import time
 
 import torch
 
-from pipeline.config import load_profile, read_params
-from pipeline.runners.ynet_training import YnetSettings
+from pipeline.config import YnetSettings, load_profile, read_params
 from ynet.heatmaps import (distance_maps, gaussian_heatmaps, padded_size, scene_and_past,
                            upstream_max_distance)
 from ynet.loss import ynet_loss

@@ -7,9 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, PecnetTestSelectionParams, ReportParams, RpecnetRolloutsParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
+from pipeline.config import (BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams,
+                             FetchParams, HorizonParams, LabelsParams, ParamsError,
+                             PecnetTestSelectionParams, ReportParams, RpecnetRolloutsParams,
+                             ScorePredictionsParams, SegmentationParams, SemanticParams,
+                             SplitParams, TtstParams, WindowParams, YnetSettings, from_dict,
+                             load_section, read_params)
 from pipeline.config import YnetSeedsParams, load_profile
-from pipeline.runners.ynet_training import YnetSettings
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,

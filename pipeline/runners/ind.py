@@ -46,7 +46,8 @@ import torch
 
 from pipeline.config import (CwsParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams,
                              TRAINED_BASELINES, RuntimeParams, SegmentationParams,
-                             TrainBaselineParams, TtstParams, load_profile, load_section)
+                             TrainBaselineParams, TtstParams, load_profile, load_section,
+                             YnetSettings)
 from pipeline.data.semantic_maps import iou_summary, predicted_labels, resize_probabilities
 from pipeline.data.window_table import WindowArrays, to_arrays
 from pipeline.device import CPU
@@ -62,7 +63,7 @@ from pipeline.runners.segmentation import (downsample_pair, epoch_batches, expor
 from pipeline.runners.segmentation import load_model as load_unet
 from pipeline.runners.semantic_maps import predict_probabilities
 from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring, sampling_options
-from pipeline.runners.ynet_training import YnetSettings, train
+from pipeline.runners.ynet_training import train
 from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
 
