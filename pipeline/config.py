@@ -3,9 +3,10 @@
 Each dataclass documents its fields and checks them in `__post_init__`. `load_section` builds one
 from the YAML and fails loudly on unknown or missing keys, so a typo in `params.yaml` or in
 `dvc exp run -S ...` is an error, not a silent default. `load_profile` picks a profiled section's
-entry for the active `profile`. Y-net's settings (`YnetSettings`, which builds a
-`ynet.model.YNetConfig`) are here too, so that the code reading them need not import the training
-loop; `tests/test_params.py` checks every class against `params.yaml`.
+entry for the active `profile`. The models' own settings are here too, Y-net's (`YnetSettings`,
+which builds a `ynet.model.YNetConfig`) and the trained baselines' (`SganConfig`, `PecnetConfig`),
+so that code reading them need not import a training loop; `tests/test_params.py` checks every
+class against `params.yaml`.
 """
 
 from __future__ import annotations
@@ -856,7 +857,137 @@ def ynet_seed_slots(params: dict[str, Any]) -> list[int]:
 
 
 # ---------------------------------------------------------------------------------------------
-# Baselines (each model's own config: pipeline.harness.baselines)
+# Baselines
+
+
+@dataclass
+class SganConfig:
+    """Section `sgan.<profile>` of params.yaml: S-GAN's model and training settings
+    (`pipeline.harness.baselines.sgan`)."""
+
+    epochs: int = 200
+    """Training epochs (passes over the training windows); the best on val is kept."""
+    batch_size: int = 64
+    """Windows per batch (whole co-occurrence groups, so about this many)."""
+    learning_rate: float = 1e-3
+    """Adam learning rate of generator and discriminator."""
+    clip_g: float = 1.5
+    """Generator gradient-norm clip (0: none)."""
+    clip_d: float = 0.0
+    """Discriminator gradient-norm clip (0: none)."""
+    d_steps: int = 2
+    """Discriminator updates per generator update."""
+    best_of_k: int = 10
+    """Samples the variety loss takes the best of."""
+    l2_weight: float = 1.0
+    """Weight of the variety (best-of-k L2) loss against the adversarial loss."""
+    real_label: list[float] = field(default_factory=lambda: [0.7, 1.2])
+    """Range the discriminator's target for real tracks (and the generator's) is drawn from."""
+    fake_label: list[float] = field(default_factory=lambda: [0.0, 0.3])
+    """Range the discriminator's target for generated tracks is drawn from."""
+    embedding_dim: int = 16
+    """Width of the displacement / relative-position embeddings."""
+    encoder_hidden: int = 32
+    """Hidden size of the generator's encoder LSTM."""
+    decoder_hidden: int = 32
+    """Hidden size of the decoder LSTM (its initial state: context + noise)."""
+    noise_dim: int = 8
+    """Gaussian noise entries of the decoder's initial state."""
+    bottleneck_dim: int = 32
+    """Output width of the pooling module."""
+    pool_hidden: int = 512
+    """Hidden width of the pooling module's pre-pool MLP."""
+    mlp_dim: int = 64
+    """Hidden width of the context MLP and of the discriminator's classifier."""
+    discriminator_hidden: int = 48
+    """Hidden size of the discriminator's LSTM."""
+    coord_scale: float = 20.0
+    """Pixels per network unit (about one step of walking at 1 FPS)."""
+    val_k: int = 20
+    """Samples per window when scoring the validation split (min-over-K ADE selects the epoch)."""
+
+    def __post_init__(self):
+        positive = ("epochs", "batch_size", "d_steps", "best_of_k", "embedding_dim", "encoder_hidden",
+                    "bottleneck_dim", "pool_hidden", "mlp_dim", "discriminator_hidden", "val_k")
+        for name in positive:
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if not 0 <= self.noise_dim < self.decoder_hidden:
+            raise ValueError("noise_dim must be in [0, decoder_hidden)")
+        if self.learning_rate <= 0 or self.coord_scale <= 0:
+            raise ValueError("learning_rate and coord_scale must be > 0")
+        if self.clip_g < 0 or self.clip_d < 0 or self.l2_weight < 0:
+            raise ValueError("clip_g, clip_d and l2_weight must be >= 0")
+        for name in ("real_label", "fake_label"):
+            low, high = getattr(self, name)
+            if low > high:
+                raise ValueError(f"{name}: [low, high] with low <= high")
+
+
+@dataclass
+class PecnetConfig:
+    """Section `pecnet.<profile>` of params.yaml: PECNet's model and training settings
+    (`pipeline.harness.baselines.pecnet`)."""
+
+    epochs: int = 650
+    """Training epochs; the best on val is kept."""
+    batch_size: int = 512
+    """Windows per batch (whole co-occurrence groups, so about this many)."""
+    learning_rate: float = 3e-4
+    """Adam learning rate."""
+    past_hidden: list[int] = field(default_factory=lambda: [512, 256])
+    """Hidden widths of the past encoder (2 n_p -> ... -> feature_dim)."""
+    endpoint_hidden: list[int] = field(default_factory=lambda: [8, 16])
+    """Hidden widths of the endpoint encoder (2 -> ... -> feature_dim)."""
+    latent_hidden: list[int] = field(default_factory=lambda: [8, 50])
+    """Hidden widths of the latent encoder (2 feature_dim -> ... -> 2 latent_dim)."""
+    decoder_hidden: list[int] = field(default_factory=lambda: [1024, 512, 1024])
+    """Hidden widths of the endpoint decoder (feature_dim + latent_dim -> ... -> 2)."""
+    predictor_hidden: list[int] = field(default_factory=lambda: [1024, 512, 256])
+    """Hidden widths of the path predictor (-> 2 (n_f - 1))."""
+    nonlocal_hidden: list[int] = field(default_factory=lambda: [256, 128, 64])
+    """Hidden widths of the non-local theta, phi and g MLPs."""
+    nonlocal_dim: int = 128
+    """Width of the non-local embedding whose dot products weigh the neighbours."""
+    nonlocal_rounds: int = 3
+    """Rounds of non-local social pooling before the path predictor."""
+    feature_dim: int = 16
+    """Width of the past and endpoint features."""
+    latent_dim: int = 16
+    """Width of the latent z."""
+    sigma: float = 1.3
+    """Standard deviation of z at test time (truncation trick)."""
+    neighbour_radius: float = 100.0
+    """Pixels: co-occurring agents closer than this at some observed step pool together."""
+    data_scale: float = 1.86
+    """Factor applied to origin-shifted pixel coordinates."""
+    position_scale: float = 1000.0
+    """Pixels per unit of the absolute-position input."""
+    kl_weight: float = 1.0
+    """Weight of the KL term (summed over batch and latent dimensions); see "Loss balance"."""
+    path_weight: float = 1.0
+    """Weight of the path MSE."""
+    reverse_augment: bool = True
+    """Add every training window played backwards."""
+    val_k: int = 20
+    """Samples per window when scoring the validation split (min-over-K ADE selects the epoch)."""
+
+    def __post_init__(self):
+        for name in ("epochs", "batch_size", "nonlocal_dim", "feature_dim", "latent_dim", "val_k"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.nonlocal_rounds < 0:
+            raise ValueError("nonlocal_rounds must be >= 0")
+        for name in ("learning_rate", "sigma", "neighbour_radius", "data_scale", "position_scale"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be > 0")
+        if self.kl_weight < 0 or self.path_weight < 0:
+            raise ValueError("kl_weight and path_weight must be >= 0")
+        for name in ("past_hidden", "endpoint_hidden", "latent_hidden", "decoder_hidden",
+                     "predictor_hidden", "nonlocal_hidden"):
+            widths = getattr(self, name)
+            if not isinstance(widths, list) or any(int(w) != w or w < 1 for w in widths):
+                raise ValueError(f"{name} must be a list of positive widths, got {widths}")
 
 
 @dataclass
