@@ -42,7 +42,8 @@ from pipeline.data.ynet_data import SceneWindows, group_by_scene  # noqa: E402
 from pipeline.device import conv_layout  # noqa: E402
 from pipeline.runners.ynet_scoring import (load_for_scoring, predict_samplings,  # noqa: E402
                                            sequence_settings, setting_samplings)
-from pipeline.runners.ynet_training import YnetSettings, image_sizes  # noqa: E402
+from pipeline.config import YnetSettings  # noqa: E402
+from pipeline.data.ynet_data import image_sizes  # noqa: E402
 from ynet.model import YNet  # noqa: E402
 
 WINDOWS = Path("data/windows/release_tf30.parquet")

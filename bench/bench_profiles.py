@@ -54,15 +54,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench import common, projection  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from bench.stage_rates import smoke_params, stage_rates  # noqa: E402
-from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
+from pipeline.config import (CwsParams, EvalParams, TtstParams, YnetSettings, load_profile,  # noqa: E402
                              load_section, read_params)
 from pipeline.data.window_table import WindowArrays  # noqa: E402
 from pipeline.data.ynet_data import SceneWindows, group_by_scene  # noqa: E402
 from pipeline.device import (SCORING, TRAINING, conv_layout, describe, select_device,  # noqa: E402
                              synchronize)
 from pipeline.runners.ynet_scoring import predict_scenes, sampling_options  # noqa: E402
-from pipeline.runners.ynet_training import (BatchPart, YnetSettings, epoch_plan,  # noqa: E402
-                                            optimizer_groups, train_epoch)
+from pipeline.runners.ynet_training import (BatchPart, epoch_plan, optimizer_groups,  # noqa: E402
+                                            train_epoch)
 from ynet.heatmaps import padded_size  # noqa: E402
 from ynet.loss import ynet_loss  # noqa: E402
 from ynet.model import YNet, YNetConfig  # noqa: E402

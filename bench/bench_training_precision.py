@@ -35,11 +35,11 @@ from bench import common  # noqa: E402
 from bench.bench_profiles import IMAGE_HW  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.device import cpu_has_bf16  # noqa: E402
-from pipeline.config import ShortTermModelsParams, load_profile, read_params  # noqa: E402
+from pipeline.config import ShortTermModelsParams, YnetSettings, load_profile, read_params  # noqa: E402
 from pipeline.data.window_table import WindowArrays  # noqa: E402
 from pipeline.data.ynet_data import group_by_scene  # noqa: E402
 from pipeline.runners.short_term import ynet_settings  # noqa: E402
-from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch  # noqa: E402
+from pipeline.runners.ynet_training import epoch_plan, train_epoch  # noqa: E402
 from ynet.model import YNet  # noqa: E402
 
 

@@ -29,10 +29,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench.bench_baselines import N_FUTURE, N_PAST  # noqa: E402
 from pipeline.config import (BaselineSeedsParams, HorizonParams, SegmentationParams,  # noqa: E402
                              ShortTermModelsParams, ShortTermParams, WindowParams, YnetSeedsParams,
-                             load_profile, load_section, read_params)
+                             YnetSettings, load_profile, load_section, read_params)
 from pipeline.harness import baselines  # noqa: E402
 from pipeline.runners.short_term import ynet_settings  # noqa: E402
-from pipeline.runners.ynet_training import YnetSettings  # noqa: E402
 
 RELEASE_TABLE = "windows/release_tf30.parquet"
 LABEL_INDEX = "labels/index.json"

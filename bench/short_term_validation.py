@@ -16,13 +16,13 @@ import torch
 
 from bench.common import repro, require
 from pipeline.runners.ynet_scoring import load_model
-from pipeline.config import ShortTermModelsParams, ShortTermParams, load_profile, load_section, read_params
+from pipeline.config import (ShortTermModelsParams, ShortTermParams, YnetSettings, load_profile,
+                             load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.short_term import load_ethucy_scenes
 from pipeline.runners.short_term import ETHUCY_SCENES, load_benchmark, sample_windows, table_path
-from pipeline.runners.ynet_training import YnetSettings, image_sizes
 from pipeline.data.window_table import WindowArrays
-from pipeline.data.ynet_data import SceneWindows, group_by_scene
+from pipeline.data.ynet_data import SceneWindows, group_by_scene, image_sizes
 from ynet.model import YNet
 
 SDD_MAPS = Path("data/semantic_maps")

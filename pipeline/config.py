@@ -3,10 +3,10 @@
 Each dataclass documents its fields and checks them in `__post_init__`. `load_section` builds one
 from the YAML and fails loudly on unknown or missing keys, so a typo in `params.yaml` or in
 `dvc exp run -S ...` is an error, not a silent default. `load_profile` picks a profiled section's
-entry for the active `profile`. Two settings classes stay beside the code that needs their heavy
-imports: `YnetSettings` (`pipeline.runners.ynet_training`, builds a `ynet.model.YNetConfig`) and the
-baselines' configs (`pipeline.harness.baselines`); `tests/test_params.py` checks them all against
-`params.yaml`.
+entry for the active `profile`. The models' own settings are here too, Y-net's (`YnetSettings`,
+which builds a `ynet.model.YNetConfig`) and the trained baselines' (`SganConfig`, `PecnetConfig`),
+so that code reading them need not import a training loop; `tests/test_params.py` checks every
+class against `params.yaml`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,9 @@ from typing import Any, TypeVar
 
 import yaml
 
-from pipeline.data.splits import FOLD_TEST_SCENES, SDD_RAW_FPS, TRAIN_VIDEOS
+from pipeline.splits import FOLD_TEST_SCENES, SDD_RAW_FPS, TRAIN_VIDEOS
+from ynet.heatmaps import upstream_max_distance
+from ynet.model import YNetConfig
 
 T = TypeVar("T")
 
@@ -584,7 +586,129 @@ class SemanticParams:
 
 
 # ---------------------------------------------------------------------------------------------
-# Y-net scoring and the Y-net horizons (Y-net's own settings: runners.ynet_training.YnetSettings)
+# Y-net: its model and training settings (section ynet.<profile>)
+
+
+# (quarter turns counter-clockwise, horizontal flip), the authors' 8 augmentations
+# (`pipeline.data.ynet_data.augment` applies one).
+AUGMENTATIONS = tuple((turns, flip) for turns in range(4) for flip in (False, True))
+LR_SCHEDULES = ("constant", "cosine")
+
+
+@dataclass
+class YnetSettings:
+    """Section `ynet.<profile>` of params.yaml: Y-net's model and training settings."""
+
+    resize: float = 0.25
+    """Scale of maps and coordinates relative to the original image (authors: 0.25 for SDD)."""
+    epochs: int = 300
+    """Training epochs."""
+    batch_size: int = 8
+    """Windows per batch (all of one scene)."""
+    learning_rate: float = 1e-4
+    """Adam learning rate."""
+    augmentations: int = 8
+    """How many of the 8 rotation/flip variants each scene is seen under per epoch (8 = all)."""
+    loss_scale: float = 1000.0
+    """Factor on both BCE losses (authors: 1000)."""
+    kernel_size: int = 31
+    """Side of the Gaussian ground-truth kernel, pixels of the resized map."""
+    sigma: float = 4.0
+    """Standard deviation of the Gaussian ground truth, pixels of the resized map."""
+    waypoints: list[int] = field(default_factory=lambda: [14, 29])
+    """Future step indices conditioning the trajectory decoder; the last is the goal."""
+    encoder_channels: list[int] = field(default_factory=lambda: [32, 32, 64, 64, 64])
+    decoder_channels: list[int] = field(default_factory=lambda: [64, 64, 64, 32, 32])
+    distance_norm: str = "upstream"
+    """'upstream': distance maps divided by the authors' constant; 'map': by each map's own maximum."""
+    distance_gain: float = 1.0
+    """Multiplies the 'upstream' distance maps (1 = the authors'). Their slope is tiny (2 / 371 per
+    pixel at resize 0.125), so the decoders need large weights to turn a distance map into a sharp
+    peak; a steeper input reaches those in far fewer steps (see the README's profile table)."""
+    seed: int = 0
+    """Seeds weights, shuffling and augmentation draws."""
+    threads: int = 2
+    """CPU threads for torch."""
+    semantic_classes: int = 6
+    """Channels of the scene map: SDD 6 (5 classes + padding), ETH/UCY 3 (road, not road, padding)."""
+    steps_per_epoch: int = 0
+    """Optimiser steps per epoch: the first of the epoch's shuffled batches; 0 = all of them."""
+    head_bias: float | None = None
+    """Initial bias of the decoders' output logits (see `ynet.model.YNetConfig.head_bias`);
+    None = PyTorch's default, as the authors."""
+    crop: int = 0
+    """0: the model sees whole scenes (the authors). > 0 (a multiple of 32): a crop x crop window
+    around each agent in training, validation and scoring (`ynet_data.window_inputs`); short
+    horizons whose futures stay near the agent then cost a fraction of the pixels."""
+    crop_lead_steps: float = 0.0
+    """The crop is centred this many steps of the agent's last observed velocity ahead of it."""
+    mix_scenes: bool = False
+    """With `crop`: a batch draws its windows from every scene (crops share one size), instead of
+    all from one scene. Larger batches then stay diverse, and no scene leaves a small last batch."""
+    bf16: bool = False
+    """bfloat16 autocast for the training forward passes on the CPU (about 1.7x on CPUs with
+    AVX512-BF16 at batch 16; losses stay float32). CUDA always trains under bfloat16 autocast."""
+    lr_schedule: str = "constant"
+    """'constant', or 'cosine': the learning rate falls from `learning_rate` to 0 along a half
+    cosine over the run's steps (a pure function of the step, so a resumed run follows it too)."""
+    trajectory_lr_scale: float = 1.0
+    """Multiplies the trajectory decoder's learning rate (schedule included); 1 = one rate for the
+    whole model, as the authors. A short-term Y-net on crops learns its paths more slowly than its
+    goals (README: its paths lose to straight lines towards the same goals)."""
+    weight_average_decay: float = 0.0
+    """0: validation and the kept best model use the weights as trained (the authors). In (0, 1):
+    they use an exponential moving average of the weights, updated after every optimiser step with
+    this decay (`average_weights`); training itself is unchanged. With batches of 2 at a constant
+    rate the weights wander on a noisy plateau (val ADE jumps by 10 px between epochs); their
+    average sits nearer its middle."""
+    grad_clip_norm: float = 0.0
+    """0: no clipping (the authors). > 0: before each step the gradients are scaled down so that
+    their global L2 norm is at most this (`torch.nn.utils.clip_grad_norm_`): a rare huge batch
+    gradient then moves the weights no further than a typical one. Losses are `loss_scale` times
+    the BCE, so the norm's scale is that of the scaled loss."""
+
+    def __post_init__(self):
+        if not 0 < self.resize <= 1:
+            raise ValueError(f"resize must be in (0, 1], got {self.resize}")
+        if not 1 <= self.augmentations <= len(AUGMENTATIONS):
+            raise ValueError(f"augmentations must be 1..{len(AUGMENTATIONS)}")
+        if self.distance_norm not in ("upstream", "map"):
+            raise ValueError("distance_norm must be 'upstream' or 'map'")
+        if self.distance_gain <= 0 or (self.distance_norm == "map" and self.distance_gain != 1):
+            raise ValueError("distance_gain must be positive, and 1 with distance_norm 'map'")
+        if min(self.epochs, self.batch_size, self.semantic_classes) < 1:
+            raise ValueError("epochs, batch_size and semantic_classes must be positive")
+        if self.steps_per_epoch < 0:
+            raise ValueError("steps_per_epoch must be >= 0 (0 = every batch)")
+        if self.mix_scenes and not self.crop:
+            raise ValueError("mix_scenes needs crop > 0 (whole scenes differ in size)")
+        if self.trajectory_lr_scale <= 0:
+            raise ValueError(f"trajectory_lr_scale must be positive, got {self.trajectory_lr_scale}")
+        if self.grad_clip_norm < 0:
+            raise ValueError(f"grad_clip_norm must be >= 0 (0 = off), got {self.grad_clip_norm}")
+        if not 0 <= self.weight_average_decay < 1:
+            raise ValueError(f"weight_average_decay must be in [0, 1), got {self.weight_average_decay}")
+        if self.lr_schedule not in LR_SCHEDULES:
+            raise ValueError(f"lr_schedule must be one of {LR_SCHEDULES}, got {self.lr_schedule!r}")
+        if self.crop < 0 or self.crop % 32 or (self.crop and self.distance_norm == "map"):
+            raise ValueError(f"crop must be 0 or a multiple of 32, with distance_norm 'upstream' "
+                             f"(crops need distance maps of a fixed scale), got {self.crop}")
+
+    def model_config(self, n_past: int, n_future: int) -> YNetConfig:
+        return YNetConfig(obs_len=n_past, pred_len=n_future, semantic_classes=self.semantic_classes,
+                          encoder_channels=tuple(self.encoder_channels),
+                          decoder_channels=tuple(self.decoder_channels),
+                          waypoints=tuple(self.waypoints), head_bias=self.head_bias)
+
+    @property
+    def max_distance(self) -> float | None:
+        if self.distance_norm == "map":
+            return None
+        return upstream_max_distance(self.resize) / self.distance_gain
+
+
+# ---------------------------------------------------------------------------------------------
+# Y-net scoring and the Y-net horizons
 
 
 @dataclass
@@ -733,7 +857,137 @@ def ynet_seed_slots(params: dict[str, Any]) -> list[int]:
 
 
 # ---------------------------------------------------------------------------------------------
-# Baselines (each model's own config: pipeline.harness.baselines)
+# Baselines
+
+
+@dataclass
+class SganConfig:
+    """Section `sgan.<profile>` of params.yaml: S-GAN's model and training settings
+    (`pipeline.harness.baselines.sgan`)."""
+
+    epochs: int = 200
+    """Training epochs (passes over the training windows); the best on val is kept."""
+    batch_size: int = 64
+    """Windows per batch (whole co-occurrence groups, so about this many)."""
+    learning_rate: float = 1e-3
+    """Adam learning rate of generator and discriminator."""
+    clip_g: float = 1.5
+    """Generator gradient-norm clip (0: none)."""
+    clip_d: float = 0.0
+    """Discriminator gradient-norm clip (0: none)."""
+    d_steps: int = 2
+    """Discriminator updates per generator update."""
+    best_of_k: int = 10
+    """Samples the variety loss takes the best of."""
+    l2_weight: float = 1.0
+    """Weight of the variety (best-of-k L2) loss against the adversarial loss."""
+    real_label: list[float] = field(default_factory=lambda: [0.7, 1.2])
+    """Range the discriminator's target for real tracks (and the generator's) is drawn from."""
+    fake_label: list[float] = field(default_factory=lambda: [0.0, 0.3])
+    """Range the discriminator's target for generated tracks is drawn from."""
+    embedding_dim: int = 16
+    """Width of the displacement / relative-position embeddings."""
+    encoder_hidden: int = 32
+    """Hidden size of the generator's encoder LSTM."""
+    decoder_hidden: int = 32
+    """Hidden size of the decoder LSTM (its initial state: context + noise)."""
+    noise_dim: int = 8
+    """Gaussian noise entries of the decoder's initial state."""
+    bottleneck_dim: int = 32
+    """Output width of the pooling module."""
+    pool_hidden: int = 512
+    """Hidden width of the pooling module's pre-pool MLP."""
+    mlp_dim: int = 64
+    """Hidden width of the context MLP and of the discriminator's classifier."""
+    discriminator_hidden: int = 48
+    """Hidden size of the discriminator's LSTM."""
+    coord_scale: float = 20.0
+    """Pixels per network unit (about one step of walking at 1 FPS)."""
+    val_k: int = 20
+    """Samples per window when scoring the validation split (min-over-K ADE selects the epoch)."""
+
+    def __post_init__(self):
+        positive = ("epochs", "batch_size", "d_steps", "best_of_k", "embedding_dim", "encoder_hidden",
+                    "bottleneck_dim", "pool_hidden", "mlp_dim", "discriminator_hidden", "val_k")
+        for name in positive:
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if not 0 <= self.noise_dim < self.decoder_hidden:
+            raise ValueError("noise_dim must be in [0, decoder_hidden)")
+        if self.learning_rate <= 0 or self.coord_scale <= 0:
+            raise ValueError("learning_rate and coord_scale must be > 0")
+        if self.clip_g < 0 or self.clip_d < 0 or self.l2_weight < 0:
+            raise ValueError("clip_g, clip_d and l2_weight must be >= 0")
+        for name in ("real_label", "fake_label"):
+            low, high = getattr(self, name)
+            if low > high:
+                raise ValueError(f"{name}: [low, high] with low <= high")
+
+
+@dataclass
+class PecnetConfig:
+    """Section `pecnet.<profile>` of params.yaml: PECNet's model and training settings
+    (`pipeline.harness.baselines.pecnet`)."""
+
+    epochs: int = 650
+    """Training epochs; the best on val is kept."""
+    batch_size: int = 512
+    """Windows per batch (whole co-occurrence groups, so about this many)."""
+    learning_rate: float = 3e-4
+    """Adam learning rate."""
+    past_hidden: list[int] = field(default_factory=lambda: [512, 256])
+    """Hidden widths of the past encoder (2 n_p -> ... -> feature_dim)."""
+    endpoint_hidden: list[int] = field(default_factory=lambda: [8, 16])
+    """Hidden widths of the endpoint encoder (2 -> ... -> feature_dim)."""
+    latent_hidden: list[int] = field(default_factory=lambda: [8, 50])
+    """Hidden widths of the latent encoder (2 feature_dim -> ... -> 2 latent_dim)."""
+    decoder_hidden: list[int] = field(default_factory=lambda: [1024, 512, 1024])
+    """Hidden widths of the endpoint decoder (feature_dim + latent_dim -> ... -> 2)."""
+    predictor_hidden: list[int] = field(default_factory=lambda: [1024, 512, 256])
+    """Hidden widths of the path predictor (-> 2 (n_f - 1))."""
+    nonlocal_hidden: list[int] = field(default_factory=lambda: [256, 128, 64])
+    """Hidden widths of the non-local theta, phi and g MLPs."""
+    nonlocal_dim: int = 128
+    """Width of the non-local embedding whose dot products weigh the neighbours."""
+    nonlocal_rounds: int = 3
+    """Rounds of non-local social pooling before the path predictor."""
+    feature_dim: int = 16
+    """Width of the past and endpoint features."""
+    latent_dim: int = 16
+    """Width of the latent z."""
+    sigma: float = 1.3
+    """Standard deviation of z at test time (truncation trick)."""
+    neighbour_radius: float = 100.0
+    """Pixels: co-occurring agents closer than this at some observed step pool together."""
+    data_scale: float = 1.86
+    """Factor applied to origin-shifted pixel coordinates."""
+    position_scale: float = 1000.0
+    """Pixels per unit of the absolute-position input."""
+    kl_weight: float = 1.0
+    """Weight of the KL term (summed over batch and latent dimensions); see "Loss balance"."""
+    path_weight: float = 1.0
+    """Weight of the path MSE."""
+    reverse_augment: bool = True
+    """Add every training window played backwards."""
+    val_k: int = 20
+    """Samples per window when scoring the validation split (min-over-K ADE selects the epoch)."""
+
+    def __post_init__(self):
+        for name in ("epochs", "batch_size", "nonlocal_dim", "feature_dim", "latent_dim", "val_k"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.nonlocal_rounds < 0:
+            raise ValueError("nonlocal_rounds must be >= 0")
+        for name in ("learning_rate", "sigma", "neighbour_radius", "data_scale", "position_scale"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be > 0")
+        if self.kl_weight < 0 or self.path_weight < 0:
+            raise ValueError("kl_weight and path_weight must be >= 0")
+        for name in ("past_hidden", "endpoint_hidden", "latent_hidden", "decoder_hidden",
+                     "predictor_hidden", "nonlocal_hidden"):
+            widths = getattr(self, name)
+            if not isinstance(widths, list) or any(int(w) != w or w < 1 for w in widths):
+                raise ValueError(f"{name} must be a list of positive widths, got {widths}")
 
 
 @dataclass
@@ -1016,7 +1270,7 @@ class YnetScale:
 @dataclass(frozen=True)
 class YnetTraining:
     """How the short-term Y-net trains where it departs from `ynet.<profile>`
-    (`pipeline.runners.ynet_training.YnetSettings` documents each; null = `ynet.<profile>`'s)."""
+    (`YnetSettings` documents each; null = `ynet.<profile>`'s)."""
 
     learning_rate: float | None = None
     batch_size: int | None = None

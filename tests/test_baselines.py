@@ -18,16 +18,17 @@ from pipeline.harness import baseline_runs, baselines
 from pipeline.stages import (evaluate_baseline, evaluate_pecnet_ka, evaluate_rpecnet, fit_model,
                              predict_model, train_baseline)
 from pipeline.harness.baselines import common
-from pipeline.harness.baselines.constant_velocity import ConstantVelocity, extrapolate
-from pipeline.harness.baselines.pecnet import Pecnet, PecnetConfig, reversed_windows
+from pipeline.harness.baselines.constant_velocity import ConstantVelocity
+from pipeline.harness.baselines.pecnet import Pecnet, reversed_windows
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet, rollout
-from pipeline.harness.baselines.sgan import SganConfig, SocialGan
+from pipeline.harness.baselines.sgan import SocialGan
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
-from pipeline.config import (PARAMS_FILE, EvaluateBaselineParams, ParamsError, TrainBaselineParams,
-                             from_dict, load_section, read_params)
+from pipeline.config import (PARAMS_FILE, EvaluateBaselineParams, ParamsError, PecnetConfig,
+                             SganConfig, TrainBaselineParams, from_dict, load_section, read_params)
 from pipeline.data.window_table import WindowArrays, conform, to_arrays
+from pipeline.models.constant_velocity import extrapolate
 
 torch.set_num_threads(1)
 N_PAST = 5

@@ -7,8 +7,7 @@ import pandas as pd
 import pytest
 
 from bench import projection
-from pipeline.config import read_params
-from pipeline.runners.ynet_training import YnetSettings
+from pipeline.config import YnetSettings, read_params
 
 
 def test_tflops_per_s_is_flops_over_seconds_in_units_of_1e12():

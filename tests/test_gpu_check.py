@@ -18,9 +18,8 @@ from torch.profiler import ProfilerActivity
 from bench.bench_profiles import ScoringBench, TrainingBench
 from bench.gpu_check import (count_sync_warnings, output_paths, profile_training, sync_counts,
                               top_events)
-from pipeline.config import EvalParams, load_profile, read_params
+from pipeline.config import EvalParams, YnetSettings, load_profile, read_params
 from pipeline.device import CPU
-from pipeline.runners.ynet_training import YnetSettings
 from ynet.sampling import SamplingOptions
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -13,12 +13,11 @@ import pytest
 import torch
 import yaml
 
-from pipeline.config import from_dict
+from pipeline.config import YnetSettings, from_dict
 from pipeline.data.window_table import to_arrays
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
-from pipeline.runners.ynet_training import YnetSettings
 from pipeline.stages import evaluate_ynet_horizon, train_ynet_horizon, ynet_slot_scoring
 from tests.fixtures import write_walker_scenes
 from ynet.model import YNet, weights_for_horizon

@@ -1,31 +1,56 @@
-"""The shape of `pipeline/`, from its import graph: stages are thin entry points, libraries never
-reach into them.
+"""The shape of `pipeline/` and `ynet/`, from their import graph: floors that import only from
+the floors below them, and stages as thin entry points on top.
 
 (a) no module of `pipeline/stages` imports another module of `pipeline/stages`;
 (b) no module outside `pipeline/stages` imports `pipeline.stages` (or anything in it);
 (c) every module of `pipeline/stages` has a `main` function (and runs it under `__main__`);
-(d) every stage module is named as a stage of dvc.yaml, and every stage runs the module of its name.
+(d) every stage module is named as a stage of dvc.yaml, and every stage runs the module of its name;
+(e) every module is on exactly one floor of `FLOORS`, and imports only its own floor and the floors
+    that floor may import, all of them lower (ARCHITECTURE.md's "The packages" shows the same table);
+(f) no import cycle: within a floor too, two modules never need each other.
 Each check runs on the real tree and, to show it can fail, on a deliberately bad one.
 """
 
 from __future__ import annotations
 
 import ast
+from fnmatch import fnmatchcase
 from pathlib import Path
 
 import pytest
 import yaml
 
-from pipeline.code_graph import REPO, imported_modules, module_name
+from pipeline.code_graph import PACKAGES, REPO, imported_modules, module_name
 
 STAGES = "pipeline.stages"
 
+# The floors, lowest first: (floor, its modules, the floors it may import besides its own). A name
+# ending in ".*" stands for everything inside that package; `pipeline` is the package's own
+# __init__.py (no code), which Python runs before any module of it.
+BELOW_MODELS = ("ynet", "splits", "config", "foundation", "data")
+FLOORS = (
+    ("ynet", ("ynet", "ynet.*"), ()),
+    ("splits", ("pipeline", "pipeline.splits"), ()),
+    ("config", ("pipeline.config",), ("ynet", "splits")),
+    ("foundation", ("pipeline.io", "pipeline.device", "pipeline.preemption", "pipeline.checkpoints",
+                    "pipeline.slot_scoring", "pipeline.code_graph"), ("splits", "config")),
+    ("data", ("pipeline.data", "pipeline.data.*"), ("ynet", "splits", "config", "foundation")),
+    ("models", ("pipeline.models", "pipeline.models.*"), BELOW_MODELS),
+    ("harness", ("pipeline.harness", "pipeline.harness.*"), (*BELOW_MODELS, "models")),
+    ("runners", ("pipeline.runners", "pipeline.runners.*"), (*BELOW_MODELS, "models", "harness")),
+    ("report", ("pipeline.report", "pipeline.report.*"), (*BELOW_MODELS, "models")),
+    # a stage never imports another stage: test_no_stage_imports_another_stage
+    ("stages", ("pipeline.stages", "pipeline.stages.*"),
+     (*BELOW_MODELS, "models", "harness", "runners", "report")),
+)
+
 
 def graph(root: Path) -> dict[str, set[str]]:
-    """Module name -> the `pipeline` modules (and names) it imports, for every pipeline/**.py."""
+    """Module name -> the project modules (and names) it imports, for every .py of `PACKAGES`."""
     return {module_name(path, root): {n for n in imported_modules(path, root)
-                                       if n.split(".")[0] == "pipeline"}
-            for path in sorted((root / "pipeline").rglob("*.py"))}
+                                       if n.split(".")[0] in PACKAGES}
+            for package in PACKAGES if (root / package).is_dir()
+            for path in sorted((root / package).rglob("*.py"))}
 
 
 def is_stage(name: str) -> bool:
@@ -40,6 +65,65 @@ def stage_to_stage(modules: dict[str, set[str]]) -> list[str]:
 def library_to_stage(modules: dict[str, set[str]]) -> list[str]:
     return sorted(f"{m} imports {n}" for m, names in modules.items()
                   if not is_stage(m) and m != STAGES for n in names if n == STAGES or is_stage(n))
+
+
+def floors_of(module: str) -> list[str]:
+    return [floor for floor, members, _ in FLOORS
+            if any(fnmatchcase(module, member) for member in members)]
+
+
+def not_on_one_floor(modules: dict[str, set[str]]) -> list[str]:
+    return sorted(f"{m} is on {len(floors_of(m))} floors" for m in modules if len(floors_of(m)) != 1)
+
+
+def module_of(name: str, modules: dict[str, set[str]]) -> str:
+    """The module an imported name is, or lies in (`pipeline.splits.TRAIN_VIDEOS` -> pipeline.splits)."""
+    parts = name.split(".")
+    return next((".".join(parts[:i]) for i in range(len(parts), 0, -1)
+                 if ".".join(parts[:i]) in modules), name)
+
+
+def floor_breaches(modules: dict[str, set[str]]) -> list[str]:
+    """Every import of a floor the importer's floor may not import, as `module imports module`."""
+    allowed = {floor: {floor, *below} for floor, _, below in FLOORS}
+    found = set()
+    for module, names in modules.items():
+        if len(floors_of(module)) != 1:
+            continue  # not_on_one_floor names it
+        for target in {module_of(n, modules) for n in names}:
+            floors = floors_of(target)
+            if len(floors) != 1 or floors[0] not in allowed[floors_of(module)[0]]:
+                found.add(f"{module} imports {target}")
+    return sorted(found)
+
+
+def on_cycles(modules: dict[str, set[str]]) -> list[str]:
+    """Modules that reach themselves through imports. A module naming its own package (`from
+    pipeline.harness.baselines import common` in `baselines.sgan`) only reaches a sibling."""
+    edges = {m: {t for t in (module_of(n, modules) for n in names)
+                 if t in modules and t != m and not m.startswith(t + ".")}
+             for m, names in modules.items()}
+
+    def reached(start: str) -> set[str]:
+        seen, todo = set(), list(edges[start])
+        while todo:
+            m = todo.pop()
+            if m not in seen:
+                seen.add(m)
+                todo.extend(edges[m])
+        return seen
+
+    return sorted(m for m in modules if m in reached(m))
+
+
+def architecture_floors(path: Path) -> list[tuple[str, tuple[str, ...]]]:
+    """(floor, may import) of each row of the table under "## The packages", in its order; the last
+    column lists floors separated by commas, or "-" for none."""
+    section = path.read_text().split("\n## The packages\n", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip().strip("|").split("|") for line in section.splitlines()
+            if line.startswith("| ")][1:]  # below the header
+    return [(cells[0].strip(), tuple(f.strip() for f in cells[-1].split(",") if f.strip() != "-"))
+            for cells in rows]
 
 
 def stage_files(root: Path) -> list[Path]:
@@ -97,6 +181,28 @@ def test_every_stage_module_is_a_dvc_stage_and_every_stage_runs_its_namesake():
     assert misnamed_commands(REPO / "dvc.yaml") == []
 
 
+def test_every_module_is_on_one_floor():
+    modules = graph(REPO)
+    assert "pipeline.config" in modules and "ynet.model" in modules
+    assert not_on_one_floor(modules) == []
+
+
+def test_every_module_imports_only_its_floor_and_the_floors_below_it_may_import():
+    assert floor_breaches(graph(REPO)) == []
+
+
+def test_the_floor_table_looks_only_down_and_is_architectures():
+    below = []
+    for floor, _, may_import in FLOORS:
+        assert set(may_import) <= set(below), f"{floor} may import a floor above it"
+        below.append(floor)
+    assert architecture_floors(REPO / "ARCHITECTURE.md") == [(f, m) for f, _, m in FLOORS]
+
+
+def test_no_import_cycle():
+    assert on_cycles(graph(REPO)) == []
+
+
 # ---------------------------------------------------------------------------------------------
 # The checks catch what they are for
 
@@ -133,3 +239,45 @@ def test_the_checks_catch_bad_imports_and_missing_mains(bad_tree):
     assert without_main(bad_tree) == ["b.py", "c.py"]  # b: no main; c: main never run
     assert unnamed_stages(bad_tree, bad_tree / "dvc.yaml") == ["c"]
     assert misnamed_commands(bad_tree / "dvc.yaml") == ["d"]  # stage d runs module a
+
+
+@pytest.fixture
+def upward_tree(tmp_path) -> Path:
+    """A tiny project whose floors import upwards, a module on no floor and two import cycles."""
+    for rel in ("pipeline/__init__.py", "pipeline/data/__init__.py", "pipeline/harness/__init__.py",
+                "pipeline/runners/__init__.py", "pipeline/report/__init__.py",
+                "pipeline/stages/__init__.py", "ynet/__init__.py"):
+        write(tmp_path, rel, '"""doc"""\n')
+    write(tmp_path, "pipeline/splits.py", "TRAIN = 1\n")
+    write(tmp_path, "pipeline/config.py", "from pipeline.data.windows import cut\n")
+    write(tmp_path, "pipeline/io.py", "from pipeline.config import cut\n")
+    write(tmp_path, "pipeline/data/windows.py", "from pipeline.data import tracks\n"
+                                                "from pipeline.splits import TRAIN\n\n\n"
+                                                "def cut():\n    from pipeline.runners.train import fit\n")
+    write(tmp_path, "pipeline/data/tracks.py", "from pipeline.data.windows import cut\n")
+    write(tmp_path, "pipeline/models/__init__.py", "from pipeline.harness.metrics import ade\n")
+    write(tmp_path, "pipeline/harness/metrics.py", "from pipeline.splits import TRAIN\n")
+    write(tmp_path, "pipeline/runners/train.py", "from pipeline.harness import metrics\n"
+                                                 "from pipeline.report.page import draw\n")
+    write(tmp_path, "pipeline/report/page.py", "from pipeline.runners.train import fit\n")
+    write(tmp_path, "pipeline/stages/a.py", "from pipeline.report.page import draw\n"
+                                            "from pipeline.runners.train import fit\n")
+    write(tmp_path, "pipeline/helpers.py", "import os\n")
+    write(tmp_path, "ynet/model.py", "import pipeline.config\n")
+    write(tmp_path, "ynet/loss.py", "from ynet.model import Net\n")
+    return tmp_path
+
+
+def test_the_floor_checks_catch_upward_imports_strays_and_cycles(upward_tree):
+    modules = graph(upward_tree)
+    assert floor_breaches(modules) == [
+        "pipeline.config imports pipeline.data.windows",  # config imports data
+        "pipeline.data.windows imports pipeline.runners.train",  # in a function
+        "pipeline.models imports pipeline.harness.metrics",
+        "pipeline.report.page imports pipeline.runners.train",  # report may not import runners
+        "pipeline.runners.train imports pipeline.report.page",  # nor runners report
+        "ynet.model imports pipeline.config",  # ynet imports pipeline
+    ]
+    assert not_on_one_floor(modules) == ["pipeline.helpers is on 0 floors"]
+    assert on_cycles(modules) == ["pipeline.data.tracks", "pipeline.data.windows",
+                                  "pipeline.report.page", "pipeline.runners.train"]

@@ -30,14 +30,15 @@ import yaml
 from pipeline.data import ind
 from pipeline.runners import ind as ind_benchmark
 from pipeline.stages import ind_windows
-from pipeline.harness.baselines.pecnet import PecnetConfig
-from pipeline.harness.baselines.sgan import SganConfig
 from pipeline.data.ind import IndError
 from pipeline.runners.ind import BenchmarkSettings
 from pipeline.data.labels import MaskError
-from pipeline.config import CwsParams, DataParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams, IndParams, ParamsError, SegmentationParams, TrainBaselineParams, TtstParams, WindowParams, from_dict, load_profile, load_section, read_params
+from pipeline.config import (CwsParams, DataParams, EvalParams, EvaluateBaselineParams,
+                             IndBenchmarkParams, IndParams, ParamsError, PecnetConfig,
+                             SegmentationParams, SganConfig, TrainBaselineParams, TtstParams,
+                             WindowParams, YnetSettings, from_dict, load_profile, load_section,
+                             read_params)
 from pipeline.runners.segmentation import export_model
-from pipeline.runners.ynet_training import YnetSettings
 from pipeline.data.window_table import COLUMNS, to_arrays
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde

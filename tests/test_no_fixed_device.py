@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
 from pipeline.runners.ynet_scoring import predict_scenes, qualitative, sampling_options
-from pipeline.runners.ynet_training import YnetSettings, epoch_plan, train_epoch, validate
+from pipeline.runners.ynet_training import epoch_plan, train_epoch, validate
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import group_by_scene
 from ynet.model import YNet

@@ -7,9 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.config import BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams, FetchParams, HorizonParams, LabelsParams, ParamsError, PecnetTestSelectionParams, ReportParams, RpecnetRolloutsParams, ScorePredictionsParams, SegmentationParams, SemanticParams, SplitParams, TtstParams, WindowParams, from_dict, load_section, read_params
-from pipeline.config import YnetSeedsParams, load_profile
-from pipeline.runners.ynet_training import YnetSettings
+from pipeline.config import (BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams,
+                             FetchParams, HorizonParams, LabelsParams, ParamsError,
+                             PecnetTestSelectionParams, ReportParams, RpecnetRolloutsParams,
+                             ScorePredictionsParams, SegmentationParams, SemanticParams,
+                             SplitParams, TtstParams, WindowParams, YnetSettings, from_dict,
+                             load_section, read_params)
+from pipeline.config import PecnetConfig, SganConfig, YnetSeedsParams, load_profile
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,
@@ -40,7 +44,8 @@ def test_params_yaml_sections_validate(key, cls):
 
 
 PROFILED = {"ynet": YnetSettings, "eval": EvalParams, "segmentation": SegmentationParams,
-            "ynet_horizons": HorizonParams, "ynet_seeds": YnetSeedsParams}
+            "ynet_horizons": HorizonParams, "ynet_seeds": YnetSeedsParams, "sgan": SganConfig,
+            "pecnet": PecnetConfig}
 
 
 @pytest.mark.parametrize("profile", ["cpu", "paper"])

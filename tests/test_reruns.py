@@ -5,7 +5,7 @@ round differently, which is why the report's spreads are over evaluation rounds 
 import numpy as np
 import torch
 
-from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import generator
 from pipeline.harness import baseline_runs
@@ -16,7 +16,7 @@ from pipeline.harness.baselines.sgan import SocialGan
 from pipeline.runners.segmentation import fingerprint
 from pipeline.runners.segmentation import train as train_unet
 from pipeline.runners.ynet_scoring import evaluation_sequence, load_model
-from pipeline.runners.ynet_training import YnetSettings, train
+from pipeline.runners.ynet_training import train
 from tests.test_baselines import TINY_PECNET, TINY_SGAN, state_of, straight_tracks
 from tests.test_segmentation import tiny_params, tiny_scenes
 from tests.test_train_ynet import MAPS, N_PAST, SETTINGS, SIZES, arrays

@@ -17,8 +17,8 @@ import yaml
 
 from pipeline.harness import rpecnet_rollouts as rr
 from pipeline.harness.baselines import common
-from pipeline.harness.baselines.constant_velocity import extrapolate
-from pipeline.harness.baselines.pecnet import Pecnet, PecnetConfig, make_batch
+from pipeline.models.constant_velocity import extrapolate
+from pipeline.harness.baselines.pecnet import Pecnet, make_batch
 from pipeline.harness.baselines.rpecnet import (INDEPENDENT, MEAN_FED_BACK, ORIGINAL_FRAME,
                                                 SHARED_LATENT, VARIANTS, RecurrentPecnet, rollout)
 from pipeline.data.window_table import load_windows

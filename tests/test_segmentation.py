@@ -17,7 +17,8 @@ from pipeline.data.labels import import_labels
 from pipeline.config import LabelsParams, ParamsError, SegmentationParams, SemanticParams, load_profile, load_section, read_params
 from pipeline import checkpoints
 from pipeline.runners.segmentation import downsample_pair, export_model, fingerprint, learning_rate, load_model, pad_to_multiple, scaled_size, train
-from pipeline.data.semantic_maps import build_maps, dequantise, iou_summary, load_semantic_maps, one_hot_map, predicted_labels, quantise
+from pipeline.data.semantic_maps import dequantise, iou_summary, load_semantic_maps, one_hot_map, predicted_labels, quantise
+from pipeline.runners.semantic_maps import build_maps
 from ynet.segmentation import (
     N_OUTPUTS,
     PAD_CLASS,

@@ -31,8 +31,8 @@ from pipeline.runners.segmentation import (
     train_step,
     unet_config,
 )
-from pipeline.data.semantic_maps import (iou_summary, load_semantic_maps, predict_probabilities,
-                                         predicted_labels)
+from pipeline.data.semantic_maps import iou_summary, load_semantic_maps, predicted_labels
+from pipeline.runners.semantic_maps import predict_probabilities
 from tests.test_segmentation import synthetic_scene, tiny_params, tiny_scenes, write_scene_fixture
 from ynet.segmentation import N_OUTPUTS, UNet, confusion_matrix, dice_loss, iou_from_confusion
 

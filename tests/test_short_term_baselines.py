@@ -16,10 +16,8 @@ import pandas as pd
 import pytest
 import torch
 
-from pipeline.config import read_params
+from pipeline.config import PecnetConfig, SganConfig, read_params
 from pipeline.data.window_table import to_arrays
-from pipeline.harness.baselines.pecnet import PecnetConfig
-from pipeline.harness.baselines.sgan import SganConfig
 from pipeline.runners.short_term import select_split
 from pipeline.runners.short_term_baselines import (baseline_config, benchmark_in_unit, load_in_unit,
                                                    overrides)

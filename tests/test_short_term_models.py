@@ -30,8 +30,8 @@ from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
 from pipeline.io import IntermediateError
 from pipeline.config import (DATASETS, CwsParams, EvalParams, ReportParams, ShortTermModelsParams,
-                             TtstParams, YnetTraining, YnetTrainingByBenchmark, load_profile,
-                             read_params)
+                             TtstParams, YnetSettings, YnetTraining, YnetTrainingByBenchmark,
+                             load_profile, read_params)
 from pipeline.data.semantic_maps import quantise
 from pipeline.data.short_term import (MAP_CLASSES, EthUcySceneInfo, ethucy_scene_image,
                                       load_ethucy_scenes)
@@ -45,7 +45,7 @@ from pipeline.runners.ynet_scoring import (in_scene_frame, load_for_scoring, pre
 from pipeline.stages import (evaluate_short_term_baseline, evaluate_short_term_ynet,
                              train_short_term_baseline, train_short_term_ynet)
 from pipeline.stages.short_term_tables import main as tables_main
-from pipeline.runners.ynet_training import YnetSettings, train
+from pipeline.runners.ynet_training import train
 from pipeline.data.window_table import WindowArrays
 from tests.fixtures import write_maps_folder
 from ynet.segmentation import CLASS_NAMES, PAD_CLASS

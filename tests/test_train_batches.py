@@ -12,9 +12,9 @@ from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.preemption import NEVER, Preemption, StopRequested
 from pipeline.runners import ynet_training
-from pipeline.runners.ynet_training import (YnetSettings, average_weights, epoch_plan,
-                                            optimizer_groups, plan_batch, scheduled_learning_rate,
-                                            train, train_epoch)
+from pipeline.runners.ynet_training import (average_weights, epoch_plan, optimizer_groups,
+                                            plan_batch, scheduled_learning_rate, train, train_epoch)
+from pipeline.config import YnetSettings
 from ynet.loss import ynet_loss
 from ynet.model import YNet
 

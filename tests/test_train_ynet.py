@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
 from pipeline.runners import ynet_training as train_ynet
 
 from pipeline.harness.metrics import window_errors
 from pipeline.runners.ynet_scoring import (Sampling, evaluate, evaluation_sequence, load_model,
                                            predict_samplings, predict_scenes, sampling_options,
                                            sequence_settings, setting_samplings)
-from pipeline.runners.ynet_training import YnetSettings, run_fingerprint, scale_waypoints, train
+from pipeline.runners.ynet_training import run_fingerprint, scale_waypoints, train
 from pipeline.preemption import Preemption, StopRequested
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import group_by_scene, window_inputs

@@ -13,11 +13,10 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
 from pipeline.runners import ynet_scoring
 from pipeline.runners.ynet_scoring import (CUDA_KMEANS_CHECK_EVERY, Sampling, kmeans_check_every,
                                            predict_samplings, sampling_options)
-from pipeline.runners.ynet_training import YnetSettings
 from tests.sync_audit import SyncAudit
 from tests.test_no_fixed_device import N_FUTURE, N_PAST, SETTINGS, scenes
 from tests.test_ynet_sampling import gen, tiny_model_and_windows, two_mode_logits

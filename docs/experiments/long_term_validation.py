@@ -15,13 +15,12 @@ from pathlib import Path
 import pandas as pd
 
 from bench.common import repro, require
-from pipeline.config import (CwsParams, EvalParams, TtstParams, WindowParams, load_profile,
-                             load_section, read_params)
+from pipeline.config import (CwsParams, EvalParams, TtstParams, WindowParams, YnetSettings,
+                             load_profile, load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays, to_arrays
-from pipeline.data.ynet_data import SceneWindows
+from pipeline.data.ynet_data import SceneWindows, image_sizes
 from pipeline.runners.ynet_scoring import load_for_scoring
-from pipeline.runners.ynet_training import YnetSettings, image_sizes
 from ynet.model import YNet
 
 

@@ -28,10 +28,10 @@ from torch.optim.optimizer import register_optimizer_step_pre_hook
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 from rerun_plan import parse_override  # noqa: E402  (tools/: `-S key=value` as dvc exp run)
 
-from pipeline.config import ShortTermModelsParams, ShortTermParams, load_profile, load_section, read_params  # noqa: E402
+from pipeline.config import (ShortTermModelsParams, ShortTermParams, YnetSettings,  # noqa: E402
+                             load_profile, load_section, read_params)
 from pipeline.runners.short_term import (ETHUCY_SCENES, load_dataset, train_ynet,  # noqa: E402
                                          ynet_inputs, ynet_settings)
-from pipeline.runners.ynet_training import YnetSettings  # noqa: E402
 
 
 def norm_percentiles(norms: np.ndarray, block: int) -> list[dict[str, float]]:

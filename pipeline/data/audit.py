@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from pipeline.data.splits import split_of
+from pipeline.splits import split_of
 
 WindowKey = tuple[str, int, tuple[int, ...]]  # (scene_id, track_id, frames)
 

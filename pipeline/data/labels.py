@@ -19,8 +19,8 @@ import cv2
 import numpy as np
 
 from pipeline.config import LabelsParams
-from pipeline.data.splits import TEST_VIDEOS, TRAIN_VIDEOS
 from pipeline.io import IntermediateError, atomic_dir, index_value, read_json_index, same_names
+from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS
 from ynet.segmentation import CLASS_NAMES, N_SCENE_CLASSES, PAD_CLASS
 
 LABEL_VALUES = tuple(range(1, N_SCENE_CLASSES + 1))  # values a hand mask may hold
@@ -46,7 +46,7 @@ class MaskError(ValueError):
 
 
 def split_of(name: str) -> str:
-    """'train', 'test' (TrajNet, `pipeline.data.splits`) or 'none' (the 13 videos outside the split).
+    """'train', 'test' (TrajNet, `pipeline.splits`) or 'none' (the 13 videos outside the split).
 
     The segmentation net trains on all TrajNet train videos; Y-net's validation videos are among them.
     """

@@ -38,10 +38,10 @@ import pandas as pd
 from pipeline.config import ShortTermParams
 from pipeline.data.homography import metres_to_pixels, read_homography
 from pipeline.data.semantic_maps import QUANT, quantise
-from pipeline.data.splits import FOLD_TEST_SCENES, TEST_VIDEOS, TRAIN_VIDEOS, split_of
 from pipeline.data.window_table import conform
 from pipeline.data.windows import count_windows
 from pipeline.io import IntermediateError, atomic_dir, index_value, positive_ints, read_json_index
+from pipeline.splits import FOLD_TEST_SCENES, TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
 SDD_RATIOS = "H_SDD.txt"  # metres per pixel of every SDD video, inside trajnet-sdd/
 ETHUCY_DIR = Path("data/eth_ucy")  # inside ynet-release/: <scene>_H.txt, <scene>/oracle.png

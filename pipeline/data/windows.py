@@ -16,8 +16,8 @@ import pandas as pd
 
 from pipeline.config import WindowParams
 from pipeline.data.checksums import load_verified_pickle
-from pipeline.data.splits import split_of
 from pipeline.data.window_table import conform
+from pipeline.splits import split_of
 
 RELEASE_FILES = {"train": "data/SDD/train_longterm.pkl", "test": "data/SDD/test_longterm.pkl"}
 RELEASE_COLUMNS = ["trackId", "frame", "x", "y", "sceneId", "metaId"]

@@ -3,13 +3,15 @@
 Batches hold one scene only (scene images differ in size), so the semantic map is prepared once per
 scene and shared by every window of the batch. Coordinates follow `ynet.heatmaps`: (x, y) = (column,
 row) in pixels of the resized map; windows arrive in original pixels and are multiplied by `resize`.
-The 8x augmentation (rotations by 0/90/180/270 degrees, each with and without a horizontal flip)
-transforms the map and the coordinates together.
+The 8x augmentation (rotations by 0/90/180/270 degrees, each with and without a horizontal flip:
+`pipeline.config.AUGMENTATIONS`, beside the setting that counts them) transforms the map and the
+coordinates together. A scene's size is its video's reference image's (`image_sizes`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -19,9 +21,6 @@ import torch.nn.functional as F
 from pipeline.device import CPU, to_device
 from pipeline.data.window_table import WindowArrays
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, pad_to_multiple
-
-# (quarter turns counter-clockwise, horizontal flip), the authors' 8 augmentations.
-AUGMENTATIONS = tuple((turns, flip) for turns in range(4) for flip in (False, True))
 
 
 @dataclass(frozen=True)
@@ -46,6 +45,19 @@ class SceneWindows:
             return self
         return replace(self, semantic=to_device(self.semantic, device),
                        past=to_device(self.past, device), future=to_device(self.future, device))
+
+
+def image_sizes(sdd_root: Path, scene_ids) -> dict[str, tuple[int, int]]:
+    """Original (height, width) of each video's reference image."""
+    sizes = {}
+    for scene_id in scene_ids:
+        scene, video = scene_id.rsplit("_", 1)
+        path = sdd_root / "annotations" / scene / f"video{video}" / "reference.jpg"
+        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        if image is None:
+            raise FileNotFoundError(f"{path}: cannot read the scene image")
+        sizes[scene_id] = image.shape[:2]
+    return sizes
 
 
 def resize_semantic(semantic: np.ndarray, height: int, width: int) -> np.ndarray:

@@ -15,8 +15,8 @@ from pipeline.config import WindowParams
 from pipeline.data.horizon_windows import chain_pieces
 from pipeline.data.window_table import to_arrays
 from pipeline.data.windows import cut_pieces, cut_windows
-from pipeline.harness.baselines.constant_velocity import extrapolate
 from pipeline.harness.metrics import ade_fde
+from pipeline.models.constant_velocity import extrapolate
 
 
 def as_table(windows: pd.DataFrame) -> pd.DataFrame:

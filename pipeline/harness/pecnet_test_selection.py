@@ -33,15 +33,15 @@ from typing import Any
 import numpy as np
 import torch
 
-from pipeline.config import (EvaluateBaselineParams, PecnetTestSelectionParams, RuntimeParams,
-                             TrainBaselineParams, WindowParams, load_section)
+from pipeline.config import (EvaluateBaselineParams, PecnetConfig, PecnetTestSelectionParams,
+                             RuntimeParams, TrainBaselineParams, WindowParams, load_section)
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, TRAINING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import epoch_selection
 from pipeline.harness.baseline_runs import model_config
 from pipeline.harness.baselines.common import select_split
-from pipeline.harness.baselines.pecnet import Pecnet, PecnetConfig
+from pipeline.harness.baselines.pecnet import Pecnet
 from pipeline.harness.scoring import best_endpoint_ade, min_ade_fde
 
 PROTOCOLS = {

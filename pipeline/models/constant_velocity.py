@@ -4,10 +4,11 @@
     models:
       constant_velocity: {class: ConstantVelocity, label: Constant velocity, colour: "#7f7f7f", settings: {}}
 
-The last observed velocity extrapolated, x_{t+s} = x_t + s (x_t - x_{t-1}), by the same function
-the baselines' constant velocity and the chain-bias measurement use, so its predictions are those
-of `evaluate_baseline --model constant_velocity`. Deterministic and with nothing to learn: `fit`
-keeps nothing, and the one path is returned k times (its best of k is that path).
+The last observed velocity extrapolated, x_{t+s} = x_t + s (x_t - x_{t-1}) (`extrapolate`, here
+once: the baselines' constant velocity and the chain-bias measurement in `pipeline.harness` use it
+too), so its predictions are those of `evaluate_baseline --model constant_velocity`. Deterministic
+and with nothing to learn: `fit` keeps nothing, and the one path is returned k times (its best of
+k is that path).
 """
 
 from __future__ import annotations
@@ -18,8 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.harness.baselines.constant_velocity import extrapolate
 from pipeline.models import WindowSet
+
+
+def extrapolate(past: np.ndarray, n_future: int) -> np.ndarray:
+    """(N, n_p, 2) observed positions -> (N, n_future, 2): x_{t+s} = x_t + s (x_t - x_{t-1})."""
+    velocity = past[:, -1] - past[:, -2]  # (N, 2) per step
+    steps = np.arange(1, n_future + 1, dtype=np.float64)  # (n_f,)
+    return past[:, -1, None] + steps[None, :, None] * velocity[:, None]  # (N, n_f, 2)
 
 
 class ConstantVelocity:

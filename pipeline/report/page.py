@@ -71,7 +71,7 @@ from typing import Any
 import yaml
 
 from pipeline.config import ReportParams
-from pipeline.data.splits import TEST_VIDEOS
+from pipeline.splits import TEST_VIDEOS
 from pipeline.io import atomic_dir, write_text
 from pipeline.models import ModelEntry
 from pipeline.report import horizons

@@ -21,7 +21,7 @@ from typing import Any
 
 import yaml
 
-from pipeline.data.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
+from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 from pipeline.report.common import video_sort_key
 from pipeline.report.lookups import Absent, MetricsStore, is_number
 

@@ -46,9 +46,9 @@ import torch
 
 from pipeline.config import (CwsParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams,
                              TRAINED_BASELINES, RuntimeParams, SegmentationParams,
-                             TrainBaselineParams, TtstParams, load_profile, load_section)
-from pipeline.data.semantic_maps import (iou_summary, predict_probabilities, predicted_labels,
-                                         resize_probabilities)
+                             TrainBaselineParams, TtstParams, load_profile, load_section,
+                             YnetSettings)
+from pipeline.data.semantic_maps import iou_summary, predicted_labels, resize_probabilities
 from pipeline.data.window_table import WindowArrays, to_arrays
 from pipeline.device import CPU
 from pipeline.harness import baseline_runs, baselines
@@ -61,8 +61,9 @@ from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.segmentation import (downsample_pair, epoch_batches, export_model, learning_rate,
                                            pad_to_multiple, scaled_size, train_step)
 from pipeline.runners.segmentation import load_model as load_unet
+from pipeline.runners.semantic_maps import predict_probabilities
 from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring, sampling_options
-from pipeline.runners.ynet_training import YnetSettings, train
+from pipeline.runners.ynet_training import train
 from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
 

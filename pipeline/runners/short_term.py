@@ -54,13 +54,13 @@ import numpy as np
 import pandas as pd
 import torch
 
-from pipeline.config import CwsParams, ShortTermModelsParams, TtstParams
+from pipeline.config import CwsParams, ShortTermModelsParams, TtstParams, YnetSettings
 from pipeline.data.homography import pixels_to_metres
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.short_term import (METRE_COLUMNS, EthUcySceneInfo, ethucy_scene_image,
                                        load_ethucy_scenes)
 from pipeline.data.window_table import WindowArrays, to_arrays
-from pipeline.data.ynet_data import SceneWindows
+from pipeline.data.ynet_data import SceneWindows, image_sizes
 from pipeline.device import CPU, generator
 from pipeline.harness import baselines
 from pipeline.harness.baselines.common import select_split, subset
@@ -70,7 +70,7 @@ from pipeline.io import IntermediateError
 from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.ynet_scoring import (Sampling, predict_samplings, qualitative_examples,
                                            sampling_options, sdd_scene_image)
-from pipeline.runners.ynet_training import YnetSettings, image_sizes, train
+from pipeline.runners.ynet_training import train
 from ynet.model import YNet
 from ynet.sampling import SamplingOptions
 

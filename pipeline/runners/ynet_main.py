@@ -22,12 +22,13 @@ from pathlib import Path
 import pandas as pd
 import torch
 
-from pipeline.config import YnetSeedsParams
+from pipeline.config import YnetSeedsParams, YnetSettings
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
+from pipeline.data.ynet_data import image_sizes
 from pipeline.device import CPU
 from pipeline.preemption import NEVER, Preemption
-from pipeline.runners.ynet_training import YnetSettings, image_sizes, scale_waypoints, train
+from pipeline.runners.ynet_training import scale_waypoints, train
 
 REFERENCE_FUTURE = 30
 """Steps the configured waypoints are for (the release's t_f = 30 s at 1 FPS)."""

@@ -27,14 +27,13 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from pipeline.config import CwsParams, EvalParams, TtstParams
+from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
 from pipeline.data.labels import reference_image_path
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import SceneWindows, group_by_scene, window_inputs
 from pipeline.device import CPU, conv_layout, generator, module_device, use_bf16
 from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_metadata
-from pipeline.runners.ynet_training import YnetSettings
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
 from ynet.sampling import SamplingOptions, encode, predict, predict_encoded

@@ -21,17 +21,17 @@ import math
 import pickle
 import random
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pandas as pd
 import torch
 from tqdm import tqdm
 
+from pipeline.config import AUGMENTATIONS, YnetSettings
 from pipeline.data.window_table import WindowArrays
-from pipeline.data.ynet_data import (AUGMENTATIONS, SceneWindows, TrainingBatch, augment,
+from pipeline.data.ynet_data import (SceneWindows, TrainingBatch, augment,
                                      cropped_training_batch, group_by_scene, padded_semantic,
                                      training_batch, window_inputs)
 from pipeline import checkpoints
@@ -39,126 +39,11 @@ from pipeline.device import CPU, autocast, conv_layout, restore_rng_states, rng_
 from pipeline.harness.metrics import ade_fde
 from pipeline.io import IntermediateError, copy_file, save_torch, write_csv
 from pipeline.preemption import NEVER, Preemption
-from ynet.heatmaps import distance_maps, upstream_max_distance
+from ynet.heatmaps import distance_maps
 from ynet.loss import ynet_loss
-from ynet.model import YNet, YNetConfig, weights_for_horizon
+from ynet.model import YNet, weights_for_horizon
 from ynet.sampling import softargmax
 from ynet.segmentation import PAD_CLASS
-
-
-LR_SCHEDULES = ("constant", "cosine")
-
-
-@dataclass
-class YnetSettings:
-    """Section `ynet.<profile>` of params.yaml: Y-net's model and training settings."""
-
-    resize: float = 0.25
-    """Scale of maps and coordinates relative to the original image (authors: 0.25 for SDD)."""
-    epochs: int = 300
-    """Training epochs."""
-    batch_size: int = 8
-    """Windows per batch (all of one scene)."""
-    learning_rate: float = 1e-4
-    """Adam learning rate."""
-    augmentations: int = 8
-    """How many of the 8 rotation/flip variants each scene is seen under per epoch (8 = all)."""
-    loss_scale: float = 1000.0
-    """Factor on both BCE losses (authors: 1000)."""
-    kernel_size: int = 31
-    """Side of the Gaussian ground-truth kernel, pixels of the resized map."""
-    sigma: float = 4.0
-    """Standard deviation of the Gaussian ground truth, pixels of the resized map."""
-    waypoints: list[int] = field(default_factory=lambda: [14, 29])
-    """Future step indices conditioning the trajectory decoder; the last is the goal."""
-    encoder_channels: list[int] = field(default_factory=lambda: [32, 32, 64, 64, 64])
-    decoder_channels: list[int] = field(default_factory=lambda: [64, 64, 64, 32, 32])
-    distance_norm: str = "upstream"
-    """'upstream': distance maps divided by the authors' constant; 'map': by each map's own maximum."""
-    distance_gain: float = 1.0
-    """Multiplies the 'upstream' distance maps (1 = the authors'). Their slope is tiny (2 / 371 per
-    pixel at resize 0.125), so the decoders need large weights to turn a distance map into a sharp
-    peak; a steeper input reaches those in far fewer steps (see the README's profile table)."""
-    seed: int = 0
-    """Seeds weights, shuffling and augmentation draws."""
-    threads: int = 2
-    """CPU threads for torch."""
-    semantic_classes: int = 6
-    """Channels of the scene map: SDD 6 (5 classes + padding), ETH/UCY 3 (road, not road, padding)."""
-    steps_per_epoch: int = 0
-    """Optimiser steps per epoch: the first of the epoch's shuffled batches; 0 = all of them."""
-    head_bias: float | None = None
-    """Initial bias of the decoders' output logits (see `ynet.model.YNetConfig.head_bias`);
-    None = PyTorch's default, as the authors."""
-    crop: int = 0
-    """0: the model sees whole scenes (the authors). > 0 (a multiple of 32): a crop x crop window
-    around each agent in training, validation and scoring (`ynet_data.window_inputs`); short
-    horizons whose futures stay near the agent then cost a fraction of the pixels."""
-    crop_lead_steps: float = 0.0
-    """The crop is centred this many steps of the agent's last observed velocity ahead of it."""
-    mix_scenes: bool = False
-    """With `crop`: a batch draws its windows from every scene (crops share one size), instead of
-    all from one scene. Larger batches then stay diverse, and no scene leaves a small last batch."""
-    bf16: bool = False
-    """bfloat16 autocast for the training forward passes on the CPU (about 1.7x on CPUs with
-    AVX512-BF16 at batch 16; losses stay float32). CUDA always trains under bfloat16 autocast."""
-    lr_schedule: str = "constant"
-    """'constant', or 'cosine': the learning rate falls from `learning_rate` to 0 along a half
-    cosine over the run's steps (a pure function of the step, so a resumed run follows it too)."""
-    trajectory_lr_scale: float = 1.0
-    """Multiplies the trajectory decoder's learning rate (schedule included); 1 = one rate for the
-    whole model, as the authors. A short-term Y-net on crops learns its paths more slowly than its
-    goals (README: its paths lose to straight lines towards the same goals)."""
-    weight_average_decay: float = 0.0
-    """0: validation and the kept best model use the weights as trained (the authors). In (0, 1):
-    they use an exponential moving average of the weights, updated after every optimiser step with
-    this decay (`average_weights`); training itself is unchanged. With batches of 2 at a constant
-    rate the weights wander on a noisy plateau (val ADE jumps by 10 px between epochs); their
-    average sits nearer its middle."""
-    grad_clip_norm: float = 0.0
-    """0: no clipping (the authors). > 0: before each step the gradients are scaled down so that
-    their global L2 norm is at most this (`torch.nn.utils.clip_grad_norm_`): a rare huge batch
-    gradient then moves the weights no further than a typical one. Losses are `loss_scale` times
-    the BCE, so the norm's scale is that of the scaled loss."""
-
-    def __post_init__(self):
-        if not 0 < self.resize <= 1:
-            raise ValueError(f"resize must be in (0, 1], got {self.resize}")
-        if not 1 <= self.augmentations <= len(AUGMENTATIONS):
-            raise ValueError(f"augmentations must be 1..{len(AUGMENTATIONS)}")
-        if self.distance_norm not in ("upstream", "map"):
-            raise ValueError("distance_norm must be 'upstream' or 'map'")
-        if self.distance_gain <= 0 or (self.distance_norm == "map" and self.distance_gain != 1):
-            raise ValueError("distance_gain must be positive, and 1 with distance_norm 'map'")
-        if min(self.epochs, self.batch_size, self.semantic_classes) < 1:
-            raise ValueError("epochs, batch_size and semantic_classes must be positive")
-        if self.steps_per_epoch < 0:
-            raise ValueError("steps_per_epoch must be >= 0 (0 = every batch)")
-        if self.mix_scenes and not self.crop:
-            raise ValueError("mix_scenes needs crop > 0 (whole scenes differ in size)")
-        if self.trajectory_lr_scale <= 0:
-            raise ValueError(f"trajectory_lr_scale must be positive, got {self.trajectory_lr_scale}")
-        if self.grad_clip_norm < 0:
-            raise ValueError(f"grad_clip_norm must be >= 0 (0 = off), got {self.grad_clip_norm}")
-        if not 0 <= self.weight_average_decay < 1:
-            raise ValueError(f"weight_average_decay must be in [0, 1), got {self.weight_average_decay}")
-        if self.lr_schedule not in LR_SCHEDULES:
-            raise ValueError(f"lr_schedule must be one of {LR_SCHEDULES}, got {self.lr_schedule!r}")
-        if self.crop < 0 or self.crop % 32 or (self.crop and self.distance_norm == "map"):
-            raise ValueError(f"crop must be 0 or a multiple of 32, with distance_norm 'upstream' "
-                             f"(crops need distance maps of a fixed scale), got {self.crop}")
-
-    def model_config(self, n_past: int, n_future: int) -> YNetConfig:
-        return YNetConfig(obs_len=n_past, pred_len=n_future, semantic_classes=self.semantic_classes,
-                          encoder_channels=tuple(self.encoder_channels),
-                          decoder_channels=tuple(self.decoder_channels),
-                          waypoints=tuple(self.waypoints), head_bias=self.head_bias)
-
-    @property
-    def max_distance(self) -> float | None:
-        if self.distance_norm == "map":
-            return None
-        return upstream_max_distance(self.resize) / self.distance_gain
 
 
 def scale_waypoints(waypoints: list[int], n_future: int, reference_future: int = 30) -> list[int]:
@@ -167,19 +52,6 @@ def scale_waypoints(waypoints: list[int], n_future: int, reference_future: int =
     scaled = sorted({int(np.floor((w + 1) * n_future / reference_future + 0.5)) - 1
                      for w in waypoints})
     return [max(0, w) for w in scaled[:-1]] + [n_future - 1]
-
-
-def image_sizes(sdd_root: Path, scene_ids) -> dict[str, tuple[int, int]]:
-    """Original (height, width) of each video's reference image."""
-    sizes = {}
-    for scene_id in scene_ids:
-        scene, video = scene_id.rsplit("_", 1)
-        path = sdd_root / "annotations" / scene / f"video{video}" / "reference.jpg"
-        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-        if image is None:
-            raise FileNotFoundError(f"{path}: cannot read the scene image")
-        sizes[scene_id] = image.shape[:2]
-    return sizes
 
 
 def seed_everything(seed: int) -> None:

@@ -26,13 +26,13 @@ from pipeline.config import (CwsParams, EvalParams, RuntimeParams, TtstParams, l
                              load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
+from pipeline.data.ynet_data import image_sizes
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
 from pipeline.runners.ynet_scoring import (evaluation_sequence, load_for_scoring,
                                            prediction_metadata, qualitative_arrays,
                                            sampling_options)
-from pipeline.runners.ynet_training import image_sizes
 
 
 @exit_on_bad_intermediate

@@ -2,7 +2,7 @@
 
 `semantic.source: predicted` runs the trained U-Net over each whole scene, `labels` turns the hand
 labels into one-hot maps (the oracle ablation); the maps are scored against the hand labels on the
-test videos (IoU, mIoU) and drawn (`pipeline.data.semantic_maps`). Params: `semantic`,
+test videos (IoU, mIoU) and drawn (`pipeline.runners.semantic_maps`). Params: `semantic`,
 `runtime.device`.
 
     python -m pipeline.stages.semantic_maps --sdd data/raw/sdd --labels data/labels \
@@ -16,9 +16,9 @@ import argparse
 from pathlib import Path
 
 from pipeline.config import RuntimeParams, SemanticParams, load_section, read_params
-from pipeline.data.semantic_maps import build_maps
 from pipeline.device import SCORING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate
+from pipeline.runners.semantic_maps import build_maps
 
 
 @exit_on_bad_intermediate

@@ -22,13 +22,12 @@ import argparse
 from pathlib import Path
 
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
-                             load_profile, load_section, read_params)
+                             YnetSettings, load_profile, load_section, read_params)
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import (load_dataset, not_run_record, train_ynet, training_record,
                                          ynet_inputs, ynet_settings)
-from pipeline.runners.ynet_training import YnetSettings
 
 MODEL = "ynet"
 

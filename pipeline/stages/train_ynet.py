@@ -18,12 +18,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import RuntimeParams, load_profile, load_section, read_params
+from pipeline.config import RuntimeParams, YnetSettings, load_profile, load_section, read_params
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_main import train_main
-from pipeline.runners.ynet_training import YnetSettings
 
 
 @exit_when_stopped

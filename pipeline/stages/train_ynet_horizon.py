@@ -22,15 +22,15 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from pipeline.config import (HorizonParams, RuntimeParams, WindowParams, load_profile, load_section,
-                             read_params)
+from pipeline.config import (HorizonParams, RuntimeParams, WindowParams, YnetSettings, load_profile,
+                             load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
+from pipeline.data.ynet_data import image_sizes
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_horizon import horizon_splits, not_run_record
-from pipeline.runners.ynet_training import (YnetSettings, horizon_start, image_sizes, scale_waypoints,
-                                            train)
+from pipeline.runners.ynet_training import horizon_start, scale_waypoints, train
 
 
 @exit_when_stopped

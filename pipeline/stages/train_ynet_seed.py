@@ -22,12 +22,12 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from pipeline.config import RuntimeParams, YnetSeedsParams, load_profile, load_section, read_params
+from pipeline.config import (RuntimeParams, YnetSeedsParams, YnetSettings, load_profile,
+                             load_section, read_params)
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.ynet_main import seed_not_run_record, seed_training_record, train_main
-from pipeline.runners.ynet_training import YnetSettings
 
 
 @exit_when_stopped

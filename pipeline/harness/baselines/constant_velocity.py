@@ -1,5 +1,6 @@
 """Constant velocity: the last observed velocity extrapolated over the horizon.
 
+The extrapolation is the registered model's (`pipeline.models.constant_velocity.extrapolate`).
 Deterministic, nothing to train: the one path is repeated for every one of the K samples, so it is
 scored with the same best-of-K metric as the stochastic models (its min over K is that path).
 """
@@ -12,20 +13,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline.preemption import Preemption
 from pipeline.data.window_table import WindowArrays
+from pipeline.models.constant_velocity import extrapolate
+from pipeline.preemption import Preemption
 
 
 @dataclass
 class ConstantVelocityConfig:
     """No settings: the section exists so every model has one."""
-
-
-def extrapolate(past: np.ndarray, n_future: int) -> np.ndarray:
-    """(N, n_p, 2) observed positions -> (N, n_future, 2): x_{t+s} = x_t + s (x_t - x_{t-1})."""
-    velocity = past[:, -1] - past[:, -2]  # (N, 2) per step
-    steps = np.arange(1, n_future + 1, dtype=np.float64)  # (n_f,)
-    return past[:, -1, None] + steps[None, :, None] * velocity[:, None]  # (N, n_f, 2)
 
 
 class ConstantVelocity:

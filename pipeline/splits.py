@@ -1,8 +1,11 @@
-"""The SDD scene split: TrajNet's train/test videos, as the paper uses for the long-term benchmark.
+"""The benchmarks' fixed splits: TrajNet's SDD train/test videos, as the paper uses for the
+long-term benchmark, and the ETH/UCY leave-one-scene-out folds.
 
 Test scenes are never seen in training. The validation split (for model selection) is carved from
 the train videos by `params.yaml` `split.val_videos`; the authors selected on the test set
 (upstream bug 2), which this project does not do.
+
+The module imports nothing, so that `pipeline.config` can check params against these facts.
 """
 
 from __future__ import annotations
