@@ -29,12 +29,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tools.timed_repro import current_stages  # noqa: E402  (dvc.yaml's stage names, via DVC's API)
 
 FINGERPRINTS = "data/code_fingerprints/"
+ABSENT = ("deleted", "not in cache")  # `dvc status` of a file that is not in this checkout
 
 
 def fingerprint_only(changes: list, absent_ok: bool = False) -> bool:
     """A stage's `dvc status --json` entry holds only modified fingerprint deps. With `absent_ok`
     (a checkout that lacks the outputs: a new machine, no cache) a data file missing from the
-    workspace (`deleted`) is no change either: its record in dvc.lock stands as it is."""
+    workspace (`deleted`, or `not in cache` for an output) is no change either: its record in dvc.lock stands as it is."""
     for change in changes:
         if not isinstance(change, dict) or not set(change) <= {"changed deps", "changed outs"}:
             return False
@@ -43,7 +44,7 @@ def fingerprint_only(changes: list, absent_ok: bool = False) -> bool:
                 fingerprint = path.startswith(FINGERPRINTS)
                 if kind == "changed deps" and fingerprint and state == "modified":
                     continue
-                if absent_ok and not fingerprint and state == "deleted":
+                if absent_ok and not fingerprint and state in ABSENT:
                     continue
                 return False
     return True
