@@ -1,6 +1,7 @@
 """Re-run chosen stages with two versions of the code on the same inputs and compare the outputs
-(docs/experiments/2026-11-28-floors-byte-identity.md). Paths are those of the machine it ran on.
-outputs into a scratch dir; then compare two scratch dirs.
+(docs/experiments/2026-11-28-floors-byte-identity.md): each stage's command from dvc.lock, with one
+tree's code, on the inputs of DATA_TREE, into a scratch folder. Paths are those of the machine it
+ran on.
 
     python byte_identity.py run CODE_TREE SCRATCH
     python byte_identity.py compare SCRATCH_A SCRATCH_B
@@ -10,7 +11,7 @@ from pathlib import Path
 import yaml
 
 DATA_TREE = Path("/work/wt-clock")
-LOCK = yaml.safe_load(open("/work/main/dvc.lock"))["stages"]
+LOCK_FILE = Path("/work/main/dvc.lock")
 STAGES = ["windows", "semantic_maps", "train_baseline@sgan-60", "evaluate_baseline@sgan-60",
           "fit_model@constant_velocity-60", "predict_model@constant_velocity-60",
           "short_term_windows", "train_short_term_baseline@eth-sgan",
@@ -27,7 +28,12 @@ def deep_update(d, u):
             d[k] = v
 
 
+def lock():
+    return yaml.safe_load(LOCK_FILE.read_text())["stages"]
+
+
 def run(code_tree: Path, scratch: Path):
+    LOCK = lock()
     scratch.mkdir(parents=True)
     for name in ("pipeline", "ynet", "manifests", "tools"):
         (scratch / name).symlink_to(code_tree / name)
@@ -83,6 +89,7 @@ def digest(path: Path):
 
 
 def files(scratch: Path):
+    LOCK = lock()
     out = {}
     for stage in STAGES:
         for o in LOCK[stage].get("outs", []):
