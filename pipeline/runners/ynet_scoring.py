@@ -293,7 +293,7 @@ def qualitative_examples(model: YNet, picks: list[tuple[SceneWindows, int, np.nd
                          crop: int = 0, crop_lead_steps: float = 0.0) -> dict[str, np.ndarray]:
     """`qualitative` of each (scene, row, original BGR scene image) of `picks` (i = 0, 1, ...),
     keyed `<name>_<i>`, plus `scene_id_<i>`: the layout of `data/ynet_predictions/qualitative.npz`,
-    which the report draws (`pipeline.report.page.load_qualitative`)."""
+    which the report draws (`pipeline.report.figures.load_qualitative`)."""
     arrays = {}
     for i, (scene, row, image) in enumerate(picks):
         for key, value in qualitative(model, scene, row, settings, options, image, seed, crop,
