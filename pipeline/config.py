@@ -4,7 +4,7 @@ Each dataclass documents its fields and checks them in `__post_init__`. `load_se
 from the YAML and fails loudly on unknown or missing keys, so a typo in `params.yaml` or in
 `dvc exp run -S ...` is an error, not a silent default. `load_profile` picks a profiled section's
 entry for the active `profile`. The models' own settings are here too, Y-net's (`YnetSettings`,
-which builds a `ynet.model.YNetConfig`) and the trained baselines' (`SganConfig`, `PecnetConfig`),
+which builds a `ynet.config.YNetConfig`) and the trained baselines' (`SganConfig`, `PecnetConfig`),
 so that code reading them need not import a training loop; `tests/test_params.py` checks every
 class against `params.yaml`.
 """
@@ -22,8 +22,7 @@ from typing import Any, TypeVar
 import yaml
 
 from pipeline.splits import FOLD_TEST_SCENES, SDD_RAW_FPS, TRAIN_VIDEOS
-from ynet.heatmaps import upstream_max_distance
-from ynet.model import YNetConfig
+from ynet.config import YNetConfig, upstream_max_distance
 
 T = TypeVar("T")
 
@@ -634,7 +633,7 @@ class YnetSettings:
     steps_per_epoch: int = 0
     """Optimiser steps per epoch: the first of the epoch's shuffled batches; 0 = all of them."""
     head_bias: float | None = None
-    """Initial bias of the decoders' output logits (see `ynet.model.YNetConfig.head_bias`);
+    """Initial bias of the decoders' output logits (see `ynet.config.YNetConfig.head_bias`);
     None = PyTorch's default, as the authors."""
     crop: int = 0
     """0: the model sees whole scenes (the authors). > 0 (a multiple of 32): a crop x crop window

@@ -10,28 +10,11 @@ All functions are vectorised over a batch of positions `(B, T, 2)` and return `(
 
 from __future__ import annotations
 
-import math
 
 import torch
 import torch.nn.functional as F
 
-# The authors build every distance map by cropping one square template of side int(4200 * resize),
-# normalised by ITS maximum (centre to corner), so the slope of a distance map is the same constant for
-# every position and every scene of a dataset. 4200 px is their choice (more than twice the largest SDD
-# image side), not a property of the data.
-UPSTREAM_TEMPLATE_SIDE = 4200
-
-
-def upstream_max_distance(resize: float, template_side: int = UPSTREAM_TEMPLATE_SIDE) -> float:
-    """The normaliser the authors' distance maps use at a given `resize` (742.46 px at 0.25).
-
-    Their template is a `S x S` grid, `S = int(template_side * resize)`, of distances to its centre
-    pixel `S // 2`, divided by its own maximum: the distance from the centre to the corner (0, 0),
-    `sqrt(2) * (S // 2)`. Pass the result as `max_distance` to `distance_maps`.
-    """
-    side = int(template_side * resize)
-    return math.sqrt(2.0) * (side // 2)
-
+from ynet.config import UPSTREAM_TEMPLATE_SIDE, upstream_max_distance  # noqa: F401  (part of this module's API)
 
 def _grid(height: int, width: int, like: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Pixel-centre coordinates: rows `(H,)` and columns `(W,)` in `like`'s dtype and device."""

@@ -1,7 +1,7 @@
 """Y-net: a U-net encoder U_e and two U-net decoders, U_g (goal and waypoint heatmaps) and U_t
 (trajectory heatmaps conditioned on a goal and waypoints).
 
-Read top to bottom: config, building blocks, encoder, decoder, the full model. Shapes use
+Read top to bottom: building blocks, encoder, decoder, the full model. Shapes use
 B = batch (windows), K = samples per window, C = semantic classes, n_p / n_f = observed / future steps,
 n_w = waypoints including the goal, H x W = the padded map (multiples of 2^L = 32 for L = 5 levels).
 
@@ -12,54 +12,11 @@ trajectory decoder's conditioning maps widen its centre block to 2 * (64 + n_w) 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-
-@dataclass(frozen=True)
-class YNetConfig:
-    obs_len: int = 5
-    """n_p: observed steps, one distance-map input channel each."""
-    pred_len: int = 30
-    """n_f: future steps, one output heatmap each (from both decoders)."""
-    semantic_classes: int = 6
-    """Channels of the semantic map (SDD: 5 classes + background/padding)."""
-    encoder_channels: tuple[int, ...] = (32, 32, 64, 64, 64)
-    """Output channels of the encoder's stem and of each of its pool-conv-conv blocks."""
-    decoder_channels: tuple[int, ...] = (64, 64, 64, 32, 32)
-    """Output channels of each decoder block, coarse to fine."""
-    waypoints: tuple[int, ...] = (14, 29)
-    """Future step indices (0-based) the trajectory decoder is conditioned on; the last is the goal."""
-    head_bias: float | None = None
-    """Initial bias of both decoders' output logits; None keeps PyTorch's default (the authors').
-
-    The targets are Gaussians summing to 1, so a trained map is near zero almost everywhere. From
-    the default init (logits ~0) the background sinks slowly, and while it sits a few nats below
-    the peak, the softargmax over ~10^4-10^5 pixels is pulled toward the image centre (the
-    trajectory decoder's ADE suffers most). Starting the background low (e.g. -15, as in
-    RetinaNet's prior-probability init) lets short training runs reach sharp maps."""
-
-    def __post_init__(self):
-        if min(self.obs_len, self.pred_len, self.semantic_classes) < 1:
-            raise ValueError("obs_len, pred_len and semantic_classes must be positive")
-        if len(self.decoder_channels) != len(self.encoder_channels):
-            raise ValueError("decoder_channels needs one entry per encoder level")
-        wp = tuple(self.waypoints)
-        if not wp or list(wp) != sorted(set(wp)) or wp[0] < 0:
-            raise ValueError(f"waypoints must be increasing step indices, got {wp}")
-        if wp[-1] != self.pred_len - 1:
-            raise ValueError(f"the last waypoint must be the goal, step {self.pred_len - 1}, got {wp}")
-
-    @property
-    def in_channels(self) -> int:
-        return self.semantic_classes + self.obs_len
-
-    @property
-    def n_waypoints(self) -> int:
-        return len(self.waypoints)
+from ynet.config import YNetConfig
 
 
 def conv3x3(in_channels: int, out_channels: int) -> nn.Conv2d:
