@@ -21,7 +21,7 @@ from pipeline.preemption import Preemption, StopRequested
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import group_by_scene, window_inputs
 from pipeline.device import CPU, generator
-from ynet.heatmaps import upstream_max_distance
+from ynet.config import upstream_max_distance
 from ynet.sampling import predict
 from ynet.segmentation import PAD_CLASS
 

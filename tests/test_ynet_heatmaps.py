@@ -4,13 +4,13 @@ import pytest
 import torch
 from torch.testing import assert_close
 
+from ynet.config import upstream_max_distance
 from ynet.heatmaps import (
     distance_maps,
     gaussian_heatmaps,
     pad_to_multiple,
     padded_size,
     scene_and_past,
-    upstream_max_distance,
 )
 
 torch.set_num_threads(1)

@@ -35,7 +35,8 @@ ABSENT = ("deleted", "not in cache")  # `dvc status` of a file that is not in th
 def fingerprint_only(changes: list, absent_ok: bool = False) -> bool:
     """A stage's `dvc status --json` entry holds only modified fingerprint deps. With `absent_ok`
     (a checkout that lacks the outputs: a new machine, no cache) a data file missing from the
-    workspace (`deleted`, or `not in cache` for an output) is no change either: its record in dvc.lock stands as it is."""
+    workspace (`deleted`, or `not in cache` for an output) is no change either: its record in
+    dvc.lock stands as it is."""
     for change in changes:
         if not isinstance(change, dict) or not set(change) <= {"changed deps", "changed outs"}:
             return False
@@ -82,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
         print("code_fingerprints is stale: run `dvc repro code_fingerprints` first")
         return 1
     status = selected(status, args.stages)
-    must_run = sorted(stage for stage, changes in status.items() if not fingerprint_only(changes, args.absent_ok))
+    must_run = sorted(stage for stage, changes in status.items()
+                      if not fingerprint_only(changes, args.absent_ok))
     if must_run:
         print("these stages changed beyond their code fingerprint and must run:\n  "
               + "\n  ".join(must_run))

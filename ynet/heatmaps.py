@@ -10,11 +10,9 @@ All functions are vectorised over a batch of positions `(B, T, 2)` and return `(
 
 from __future__ import annotations
 
-
 import torch
 import torch.nn.functional as F
 
-from ynet.config import UPSTREAM_TEMPLATE_SIDE, upstream_max_distance  # noqa: F401  (part of this module's API)
 
 def _grid(height: int, width: int, like: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Pixel-centre coordinates: rows `(H,)` and columns `(W,)` in `like`'s dtype and device."""
@@ -33,7 +31,7 @@ def distance_maps(
 
     max_distance: None normalises each map by its own maximum over the `H x W` grid (the distance to
     the farthest corner, the paper's equation, values exactly 0..2); a number divides every map by
-    that constant, which is what the authors' code does (`upstream_max_distance(resize)`, values 0..<2).
+    that constant, which is what the authors' code does (`ynet.config.upstream_max_distance(resize)`, values 0..<2).
     """
     if positions.shape[-1] != 2:
         raise ValueError(f"positions must end in (x, y), got shape {tuple(positions.shape)}")

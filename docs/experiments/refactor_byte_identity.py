@@ -1,17 +1,16 @@
 """Re-run chosen stages with two versions of the code on the same inputs and compare the outputs
 (docs/experiments/2026-11-28-floors-byte-identity.md): each stage's command from dvc.lock, with one
-tree's code, on the inputs of DATA_TREE, into a scratch folder. Paths are those of the machine it
-ran on.
+tree's code, on the inputs of a checkout that holds them (DATA_TREE), into a scratch folder; the
+commands run with this interpreter's environment.
 
-    python byte_identity.py run CODE_TREE SCRATCH
-    python byte_identity.py compare SCRATCH_A SCRATCH_B
+    python refactor_byte_identity.py run CODE_TREE DATA_TREE SCRATCH
+    python refactor_byte_identity.py compare SCRATCH_A SCRATCH_B
 """
-import hashlib, json, os, shutil, subprocess, sys, time
+import hashlib, json, os, subprocess, sys, time
 from pathlib import Path
 import yaml
 
-DATA_TREE = Path("/work/wt-clock")
-LOCK_FILE = Path("/work/main/dvc.lock")
+LOCK_FILE = Path(__file__).resolve().parents[2] / "dvc.lock"  # the commands, as DVC resolves them
 STAGES = ["windows", "semantic_maps", "train_baseline@sgan-60", "evaluate_baseline@sgan-60",
           "fit_model@constant_velocity-60", "predict_model@constant_velocity-60",
           "short_term_windows", "train_short_term_baseline@eth-sgan",
@@ -32,7 +31,7 @@ def lock():
     return yaml.safe_load(LOCK_FILE.read_text())["stages"]
 
 
-def run(code_tree: Path, scratch: Path):
+def run(code_tree: Path, data_tree: Path, scratch: Path):
     LOCK = lock()
     scratch.mkdir(parents=True)
     for name in ("pipeline", "ynet", "manifests", "tools"):
@@ -47,7 +46,7 @@ def run(code_tree: Path, scratch: Path):
             path = dep["path"]
             if path.startswith("data/code_fingerprints") or path in made or path.startswith("manifests"):
                 continue
-            target, link = DATA_TREE / path, scratch / path
+            target, link = data_tree / path, scratch / path
             if not link.exists():
                 link.parent.mkdir(parents=True, exist_ok=True)
                 link.symlink_to(target)
@@ -55,7 +54,7 @@ def run(code_tree: Path, scratch: Path):
             (scratch / out["path"]).parent.mkdir(parents=True, exist_ok=True)
             made.add(out["path"])
         start = time.time()
-        env = dict(os.environ, PATH="/work/main/.venv/bin:" + os.environ["PATH"])
+        env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ["PATH"])
         result = subprocess.run(entry["cmd"], shell=True, cwd=scratch, capture_output=True, text=True, env=env)
         print(f"{stage}: rc {result.returncode}, {time.time() - start:.0f} s", flush=True)
         if result.returncode:
@@ -114,6 +113,6 @@ def compare(a: Path, b: Path):
 
 if __name__ == "__main__":
     if sys.argv[1] == "run":
-        run(Path(sys.argv[2]), Path(sys.argv[3]))
+        run(Path(sys.argv[2]), Path(sys.argv[3]), Path(sys.argv[4]))
     else:
         compare(Path(sys.argv[2]), Path(sys.argv[3]))
