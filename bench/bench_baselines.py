@@ -31,6 +31,8 @@ from bench import common  # noqa: E402
 from pipeline.harness import baselines  # noqa: E402
 from pipeline.config import load_profile, read_params  # noqa: E402
 from pipeline.data.window_table import WindowArrays  # noqa: E402
+from pipeline.models import window_set  # noqa: E402
+from pipeline.models.constant_velocity import ConstantVelocity  # noqa: E402
 
 N_PAST, N_FUTURE = 5, 30
 SIZES = {"train": 1000, "val": 150, "test": 382}  # the authors' release
@@ -102,7 +104,8 @@ def main(argv: list[str] | None = None) -> None:
         print(f"{name:<18}{per_epoch:>9.2f}{config.epochs:>8}{per_epoch * config.epochs:>9.0f}{evaluation:>15.2f}")
     print(f"{'rpecnet':<18}{'':>9}{'':>8}{'':>9}{rollout:>15.2f}")
     t0 = time.perf_counter()
-    baselines.get("constant_velocity")().predict(test, 20)
+    test_set = window_set(test, str(test.split[0]), with_future=False)
+    ConstantVelocity({}).predict(test_set, 20, Path("."), 0)  # nothing fitted: reads no workdir
     print(f"{'constant_velocity':<18}{'':>9}{'':>8}{'':>9}{time.perf_counter() - t0:>15.2f}")
 
 

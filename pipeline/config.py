@@ -21,6 +21,7 @@ from typing import Any, TypeVar
 
 import yaml
 
+from pipeline.model_list import SHORT_TERM_MODELS, ours_first
 from pipeline.splits import FOLD_TEST_SCENES, SDD_RAW_FPS, TRAIN_VIDEOS
 from ynet.config import YNetConfig, upstream_max_distance
 
@@ -1239,8 +1240,8 @@ class ShortTermParams:
 DATASETS = ("sdd", *FOLD_TEST_SCENES)  # sdd, then the five ETH/UCY folds
 
 
-TRAINED_BASELINES = ("sgan", "pecnet")  # the baselines with weights to learn
-MODELS = ("ynet", *TRAINED_BASELINES)
+# The short-term models (Tables 1 and 2), Y-net first: the keys of short_term_models.epochs.
+MODELS = tuple(ours_first(SHORT_TERM_MODELS))
 
 
 BENCHMARKS = ("sdd", "ethucy")

@@ -16,6 +16,7 @@ from pipeline.config import BaselineSeedsParams, ParamsError, from_dict
 from pipeline.harness import seed_spread
 from pipeline.harness.baselines import common
 from pipeline.io import IntermediateError
+from pipeline.model_list import BY_NAME
 from pipeline.stages import (baseline_seed_spread, evaluate_baseline, evaluate_baseline_seed,
                              evaluate_rpecnet, evaluate_rpecnet_seed, train_baseline,
                              train_baseline_seed)
@@ -128,7 +129,7 @@ def record(ade: float, fde: float, *, round_std: float = 0.5, eval_seed: int = 0
 
 def write_records(folder: Path, model: str, horizon: int, main_seed: int, records: dict[int, dict]) -> None:
     (folder / "baselines" / "seeds").mkdir(parents=True, exist_ok=True)
-    trained = seed_spread.TRAINED_AS.get(model, model)
+    trained = BY_NAME[model].trained_as or model
     for seed, content in records.items():
         content = {**content, "trained_horizon": 5 if model == "rpecnet" else horizon}
         path = (seed_spread.main_record_path(folder, model, horizon) if seed == main_seed

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+from pathlib import Path
 import signal
 
 import numpy as np
@@ -20,11 +21,12 @@ from tools import upgrade_checkpoints
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines import pecnet as pecnet_module
 from pipeline.harness.baselines import sgan as sgan_module
-from pipeline.harness.baselines.constant_velocity import ConstantVelocity
 from pipeline.harness.baselines.pecnet import Pecnet
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet
 from pipeline.harness.baselines.sgan import SocialGan
 from pipeline.device import generator as seeded_generator
+from pipeline.models import window_set
+from pipeline.models.constant_velocity import ConstantVelocity
 from pipeline.preemption import EXIT_BUDGET, Preemption, StopRequested
 from tests.test_baselines import N_PAST, TINY_PECNET, TINY_SGAN, state_of, straight_tracks, window_table
 
@@ -96,7 +98,8 @@ def test_rollout_and_constant_velocity_make_no_tensor_on_the_default_device():
     rpecnet = RecurrentPecnet(Pecnet(TINY_PECNET, N_PAST, 3, CPU))
     with torch.device("meta"):
         rolled = rpecnet.predict(arrays, 2, seeded_generator(CPU, 0))
-        constant = ConstantVelocity.load(None, CPU).predict(arrays, 2, seeded_generator(CPU, 0))
+        constant = ConstantVelocity({}).predict(window_set(arrays, "train", with_future=False), 2,
+                                                Path("."), 0)
     assert rolled.shape == constant.shape == (6, 2, 7, 2)
     assert np.isfinite(rolled).all() and np.isfinite(constant).all()
     np.testing.assert_allclose(constant, np.repeat(arrays.future[:, None], 2, axis=1), atol=1e-9)

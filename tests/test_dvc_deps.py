@@ -197,6 +197,11 @@ def test_relock_takes_only_stages_whose_one_change_is_their_code_fingerprint():
     assert not fingerprint_only([{"changed outs": {"reports/index.html": "modified"}}], absent_ok=True)
     assert not fingerprint_only([{"changed deps": {"params.yaml": {"ttst.temperature": "modified"}}}],
                                 absent_ok=True)
+    # --params: a params change is taken too (a removed switch, a newly read key), nothing else
+    params = [{"changed deps": {fingerprint: "modified", "params.yaml": {"models": "new"}}}]
+    assert not fingerprint_only(params) and fingerprint_only(params, params_ok=True)
+    assert not fingerprint_only([{"changed outs": {"metrics/ynet_eval.json": "modified"}}],
+                                params_ok=True)
 
 
 def test_relock_narrows_to_the_named_stages_and_foreach_groups():

@@ -348,11 +348,6 @@ def test_findings_read_the_plateau_off_the_record():
     assert report.section(record)["figures"] == ["curves.png"]
 
 
-def test_figure_colours_are_the_report_s():
-    from pipeline.report.common import MODEL_COLOURS
-    assert MODEL_COLOURS.items() <= report.COLOURS.items()
-
-
 def test_goal_spread_span_counts_only_the_release_horizon_and_beyond():
     def horizon(spread):
         return {"data": {"windows": 1}, "models": {"ynet": {"ade": 1.0, "endpoints": {"spread_px": {"median": spread}}}}}

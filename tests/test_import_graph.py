@@ -27,14 +27,14 @@ STAGES = "pipeline.stages"
 # The floors, lowest first: (floor, its modules, the floors it may import besides its own). A name
 # ending in ".*" stands for everything inside that package; `pipeline` is the package's own
 # __init__.py (no code), which Python runs before any module of it.
-BELOW_MODELS = ("ynet", "splits", "config", "foundation", "data")
+BELOW_MODELS = ("ynet", "facts", "config", "foundation", "data")
 FLOORS = (
     ("ynet", ("ynet", "ynet.*"), ()),
-    ("splits", ("pipeline", "pipeline.splits"), ()),
-    ("config", ("pipeline.config",), ("ynet", "splits")),
+    ("facts", ("pipeline", "pipeline.splits", "pipeline.model_list"), ()),
+    ("config", ("pipeline.config",), ("ynet", "facts")),
     ("foundation", ("pipeline.io", "pipeline.device", "pipeline.preemption", "pipeline.checkpoints",
-                    "pipeline.slot_scoring", "pipeline.code_graph"), ("splits", "config")),
-    ("data", ("pipeline.data", "pipeline.data.*"), ("ynet", "splits", "config", "foundation")),
+                    "pipeline.slot_scoring", "pipeline.code_graph"), ("facts", "config")),
+    ("data", ("pipeline.data", "pipeline.data.*"), ("ynet", "facts", "config", "foundation")),
     ("models", ("pipeline.models", "pipeline.models.*"), BELOW_MODELS),
     ("harness", ("pipeline.harness", "pipeline.harness.*"), (*BELOW_MODELS, "models")),
     ("runners", ("pipeline.runners", "pipeline.runners.*"), (*BELOW_MODELS, "models", "harness")),

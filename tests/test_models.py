@@ -21,13 +21,13 @@ import pytest
 import yaml
 
 from pipeline.config import ParamsError, read_params
-from pipeline.data.window_table import conform
-from pipeline.harness import baseline_runs
+from pipeline.data.window_table import conform, load_windows
 from pipeline.harness.model_runs import FIT_FACTS, fit_to_workdir, predict_to_files
-from pipeline.harness.predictions import read_predictions, write_no_predictions
+from pipeline.harness.predictions import prediction_arrays, read_predictions, write_no_predictions
 from pipeline.io import write_parquet
 from pipeline.models import (ModelEntry, WindowSet, check_predictions, load_model, load_models,
-                             model_file)
+                             model_file, window_set)
+from pipeline.models.constant_velocity import extrapolate
 from pipeline.runners.ind import prediction_metadata as ind_prediction_metadata
 from ynet.segmentation import CLASS_NAMES
 
@@ -184,9 +184,10 @@ def test_the_harness_shows_train_and_val_futures_never_the_test_ones(models_dir,
     assert record["ade"]["std"] > 0  # the rounds differ: the seeds reached the model
 
 
-def test_constant_velocity_through_the_contract_is_the_baseline(tmp_path):
-    """The registered constant velocity writes what `evaluate_baseline --model constant_velocity`
-    writes: the same predictions, the same numbers (all but the timings), the same keys."""
+def test_constant_velocity_through_the_contract_stores_its_extrapolation(tmp_path):
+    """The registered constant velocity (the one constant velocity: the baselines score it through
+    the same contract) stores the extrapolated path k times per round, scored as a baseline is
+    (the keys of metrics/baselines/<model>_tf<H>.json, an exact path on a straight track)."""
     table = tmp_path / "tf7.parquet"
     write_parquet(horizon_table(7, {"train": 4, "val": 2, "test": 9}, seed=5), table)
     params = params_with({"constant_velocity": CV_LINE})
@@ -194,19 +195,18 @@ def test_constant_velocity_through_the_contract_is_the_baseline(tmp_path):
     assert sorted(p.name for p in (tmp_path / "wd").iterdir()) == [FIT_FACTS]  # nothing learned
     ours = predict_to_files("constant_velocity", 7, table, tmp_path / "wd", tmp_path / "m.json",
                             tmp_path / "p.parquet", params)
-    baseline_runs.score_to_file("constant_velocity", table, 7, None, tmp_path / "b.json",
-                                tmp_path / "b.parquet", params)
-    theirs = json.loads((tmp_path / "b.json").read_text())
     assert json.loads((tmp_path / "m.json").read_text()) == ours
-    assert list(ours) == list(theirs)
-    timings = ("eval_seconds", "eval_seconds_per_round", "train_seconds")
-    assert {k: v for k, v in ours.items() if k not in timings} == \
-        {k: v for k, v in theirs.items() if k not in timings}
-    (ours_table, ours_meta), (their_table, their_meta) = (read_predictions(tmp_path / f)
-                                                          for f in ("p.parquet", "b.parquet"))
-    assert ours_table.equals(their_table)
-    assert {k: v for k, v in ours_meta.items() if k != "checkpoint_dir"} == \
-        {k: v for k, v in their_meta.items() if k != "checkpoint_dir"}
+    assert list(ours) == ["model", "horizon", "split", "seed", "ade", "fde", "ade_joint",
+                          "fde_joint", "rounds", "k", "n_windows", "eval_seconds",
+                          "eval_seconds_per_round", "per_round", "train_seconds"]
+    stored, metadata = read_predictions(tmp_path / "p.parquet")
+    test = window_set(load_windows(table, N_PAST, 7), "test", with_future=False)
+    order = np.argsort(test.window_id)  # stored in ascending window_id order
+    expected = np.repeat(extrapolate(test.past, 7)[order, None], metadata["k"], axis=1)
+    for round_index in range(len(metadata["seeds"])):
+        arrays = prediction_arrays(stored, round_index)
+        np.testing.assert_array_equal(arrays.window_ids, test.window_id[order])
+        np.testing.assert_array_equal(arrays.samples, expected)
 
 
 def nan_at(window: int, sample: int, step: int) -> np.ndarray:
@@ -277,7 +277,7 @@ def test_a_failed_fit_leaves_the_previous_workdir(models_dir, tmp_path):
 
 def test_a_window_set_holds_the_documented_arrays():
     from pipeline.data.window_table import to_arrays
-    from pipeline.harness.model_runs import window_set
+    from pipeline.models import window_set
     arrays = to_arrays(horizon_table(3, {"train": 2, "test": 3}), N_PAST)
     test = window_set(arrays, "test", with_future=False)
     assert isinstance(test, WindowSet) and len(test) == 3 and test.future is None

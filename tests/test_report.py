@@ -1125,8 +1125,8 @@ def test_beyond_section_renders_from_the_score_predictions_file(project):
     html = run_report(project).read_text()
     assert_well_formed(html)
     rows = beyond_rows(html)
-    # t_f = 30: the horizon table's models in the horizon figure's order, then the release row.
-    assert list(rows) == ["model", "PECNet", "R-PECNet", "S-GAN", "Constant velocity",
+    # t_f = 30: the horizon table's models in the paper's order, then the release row.
+    assert list(rows) == ["model", "S-GAN", "PECNet", "R-PECNet", "Constant velocity",
                           "Y-net, release_tf30 windows"]
     # PECNet at 30 s: ADE 2.25 * 30 = 67.5; FDE 135, joint 143.5, best endpoint 71.75, miss 0.375,
     # NLL 11.5 + 0.675, off limits 0.1875 (truth 0.125), collisions 0.0125 (truth 0).
@@ -1189,7 +1189,7 @@ def test_a_registered_model_gets_a_table_3_column_a_horizon_line_and_beyond_rows
     headline = json.loads((project / "reports/headline/table3_sdd_long/sdd_toy_walker_k_a_1.json")
                           .read_text())
     assert headline == {"ade": 22.5, "fde": 2.1 * 22.5}
-    assert list(beyond_rows(html))[:6] == ["model", "PECNet", "R-PECNet", "S-GAN",
+    assert list(beyond_rows(html))[:6] == ["model", "S-GAN", "PECNet", "R-PECNet",
                                           "Constant velocity", "Toy walker"]
     assert beyond_rows(html)["Toy walker"][:2] == ["22.50", "45.00"]
 
@@ -1233,7 +1233,7 @@ def test_beyond_short_term_table_states_units_and_reasons(project):
     assert "per pixel&sup2; for SDD, per metre&sup2; for ETH/UCY" in section
     assert "ETH: 181 of 181 windows in a scene with a mask, forbidden not_road" in section
     assert f"inD is absent from these metrics: {IND_REASON}" in section
-    assert "(ind/ynet, ind/pecnet, ind/sgan)" in section  # the long-term models' order
+    assert "(ind/ynet, ind/sgan, ind/pecnet)" in section  # the long-term models' order
 
 
 def test_short_term_and_ind_beyond_change_no_paper_table_and_say_when_missing(project):

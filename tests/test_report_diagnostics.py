@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import pytest
 
-from pipeline.report.diagnostics import (DIAGNOSTIC, HEADLINE, ONE_SAMPLE, diagnostics_from_store,
+from pipeline.report.diagnostics import (DIAGNOSTIC, HEADLINE, MODELS, ONE_SAMPLE, diagnostics_from_store,
                                          table3_diagnostics)
 from pipeline.report.lookups import Absent, Measured, MetricsStore
+
+# the paper's models, then the registered constant velocity (the page's `table_models`)
+WITH_REFERENCE = (*MODELS, ("constant_velocity", "Constant velocity"))
 
 
 def scored(ade, fde, one_ade, one_fde, rounds=3, std=1.0) -> dict:
@@ -42,7 +45,7 @@ def shown(rows):
 
 
 def test_rows_per_model_with_the_diagnostic_after_rpecnets_own():
-    rows = table3_diagnostics(LONG_TERM, ROLLOUTS)
+    rows = table3_diagnostics(LONG_TERM, ROLLOUTS, models=WITH_REFERENCE)
     assert shown(rows) == [
         ("S-GAN", HEADLINE), ("S-GAN", ONE_SAMPLE),
         ("PECNet", HEADLINE), ("PECNet", ONE_SAMPLE),
@@ -60,7 +63,7 @@ def test_rows_per_model_with_the_diagnostic_after_rpecnets_own():
 
 
 def test_the_diagnostic_row_is_the_chosen_variant_on_test_with_its_validation_ratio():
-    row = table3_diagnostics(LONG_TERM, ROLLOUTS)[6]
+    row = table3_diagnostics(LONG_TERM, ROLLOUTS, models=WITH_REFERENCE)[6]
     assert row.model == "rpecnet" and row.table == "tf30" and row.setting == DIAGNOSTIC
     assert row.setting == "diagnostic, not the headline"
     assert isinstance(row.ade, Measured) and (row.ade.mean, row.fde.mean) == (275.0, 605.0)
@@ -71,7 +74,7 @@ def test_the_diagnostic_row_is_the_chosen_variant_on_test_with_its_validation_ra
 
 
 def test_a_model_not_run_says_why_in_both_rows():
-    sgan = [r for r in table3_diagnostics(LONG_TERM, ROLLOUTS) if r.model == "sgan"]
+    sgan = [r for r in table3_diagnostics(LONG_TERM, ROLLOUTS, models=WITH_REFERENCE) if r.model == "sgan"]
     assert [r.setting for r in sgan] == [HEADLINE, ONE_SAMPLE]
     for r in sgan:
         assert r.ade == r.fde == Absent("S-GAN not trained here", "status")
@@ -94,7 +97,7 @@ def test_missing_rollouts_leave_the_long_term_rows_and_say_why():
                             ({"horizons": {}}, "metrics/rpecnet_rollouts.json has no "
                                                "horizons.tf30"),
                             ([], "metrics/rpecnet_rollouts.json has no horizons")):
-        rows = table3_diagnostics(LONG_TERM, missing)
+        rows = table3_diagnostics(LONG_TERM, missing, models=WITH_REFERENCE)
         assert len(rows) == 11 and rows[2].ade.mean == 80.0
         row = rows[6]
         assert row.setting == DIAGNOSTIC and row.label == "R-PECNet, compounding roll-out"
@@ -114,7 +117,7 @@ def test_missing_long_term_record_keeps_one_row_per_model_and_the_diagnostic():
 
 def test_from_the_page_store():
     store = MetricsStore("m", {"beyond/long_term.json": LONG_TERM})
-    rows = diagnostics_from_store(store)
+    rows = diagnostics_from_store(store, models=WITH_REFERENCE)
     assert rows[0].ade == Absent("S-GAN not trained here", "status")
     assert rows[2].ade.source == "m/beyond/long_term.json: tables.tf30.models.pecnet.metrics.ade"
     assert rows[6].ade.reason == "stage not yet run: m/rpecnet_rollouts.json missing"

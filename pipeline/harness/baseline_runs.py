@@ -3,11 +3,12 @@
 `train` fits S-GAN or PECNet on a window table's `train` split (keeping, for every rule of
 `pipeline.harness.epoch_selection`, the epoch it selects on the min-over-K ADE on `val`, never
 `test`; `evaluate_baseline.epoch_selection` says which is scored) and `train_record` is what the stages `train_baseline` and
-`train_baseline_seed` do with it (one training seed each), `evaluate` scores any baseline with
-the shared metric over seeded rounds (stages `evaluate_baseline`, `evaluate_rpecnet`,
-`evaluate_pecnet_ka`, `evaluate_ind`; constant velocity on the horizon tables goes through
-`predict_model`, `pipeline.harness.model_runs`), keeping every round's
-predictions where asked, `training_facts` reads what a checkpoint folder records about its
+`train_baseline_seed` do with it (one training seed each), `score_split` and `ka_rows` score a
+baseline, behind the models' contract (`baselines.Baseline`), with the loop every model is scored
+with (`pipeline.harness.model_runs.score_rounds`: the shared metric over seeded rounds; stages
+`evaluate_baseline`, `evaluate_rpecnet`, `evaluate_pecnet_ka`, `evaluate_ind`; constant velocity
+and the other registered models go through `predict_model`), keeping every round's predictions
+where asked, `training_facts` reads what a checkpoint folder records about its
 training. `score_to_file` is what the long-term baseline stages do: the metrics file and the file of
 every test prediction (`pipeline.harness.predictions`), or only the metrics for the extra training
 seeds (`evaluate_baseline_seed`, `evaluate_rpecnet_seed`). Checkpoints:
@@ -24,18 +25,19 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from pipeline.config import (EvaluateBaselineParams, RuntimeParams, TrainBaselineParams, WindowParams,
                              load_profile, load_section)
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, SCORING, TRAINING, describe, select_device
-from pipeline.device import generator as seeded_generator
 from pipeline.harness import baselines, epoch_selection
-from pipeline.harness.baselines.common import best_path, fit_result_from, load_checkpoint, select_split
-from pipeline.harness.metrics import seeded_rounds, window_errors
+from pipeline.harness.baselines.common import best_path, fit_result_from, load_checkpoint
+from pipeline.harness.model_runs import score_rounds
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import write_json
+from pipeline.models import WindowSet, window_set
 from pipeline.preemption import NEVER, Preemption
 
 
@@ -63,10 +65,11 @@ def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: 
     """Fit `model` on the train split (selecting on val) on `device`; returns the training facts
     (the per-epoch history stays in the checkpoint's last.pt). Raises `StopRequested` (after a
     mid-epoch checkpoint) when `preemption` says so."""
-    train_set, val_set = select_split(arrays, "train"), select_split(arrays, "val")
-    fitted = baselines.get(model).fit(train_set, val_set, config, checkpoint_dir, seed,
-                                      device=device, preemption=preemption)
-    result = fitted.fit_result
+    train_set = window_set(arrays, "train", with_future=True)
+    val_set = window_set(arrays, "val", with_future=True)
+    baseline = baselines.Baseline(model, config, device, preemption=preemption)
+    baseline.fit(train_set, val_set, checkpoint_dir, seed)
+    result = baseline.fit_result
     return {
         "n_train": len(train_set), "n_val": len(val_set), "epochs": result.epochs,
         "best_epoch": result.best_epoch, "best_val_ade": result.best_val_ade,
@@ -143,26 +146,6 @@ def training_seed(checkpoint_dir: Path) -> int:
     return int(load_checkpoint(best_path(checkpoint_dir))["meta"]["seed"])
 
 
-def evaluate(model, arrays: WindowArrays, k: int, rounds: int, seed: int, device: torch.device = CPU,
-             kept: PredictionRounds | None = None) -> dict:
-    """`seeded_rounds` of best-of-`k` errors (round r samples from a generator on `device`, the
-    model's, seeded with seed + r), with K, the window count and the time taken. `kept` (for
-    `arrays.window_id`) receives each round's predictions, exactly as scored."""
-    t0 = time.perf_counter()
-
-    def score_round(round_seed: int):
-        pred = model.predict(arrays, k, seeded_generator(device, round_seed))  # (N, K, n_f, 2)
-        if kept is not None:
-            kept.add(round_seed, pred)
-        return window_errors(pred, arrays.future)
-
-    scored = seeded_rounds(score_round, rounds, seed)
-    seconds = time.perf_counter() - t0
-    per_round = scored.pop("per_round")
-    return {**scored, "k": k, "n_windows": len(arrays), "eval_seconds": seconds,
-            "eval_seconds_per_round": seconds / rounds, "per_round": per_round}
-
-
 def training_facts(model: str, checkpoint_dir: Path | None, selection: str = "raw") -> dict:
     """What the checkpoint records about its training (nothing for constant velocity): `best_epoch`
     and `best_val_ade` are those of the epoch selection rule `selection` scored (its validation
@@ -176,33 +159,43 @@ def training_facts(model: str, checkpoint_dir: Path | None, selection: str = "ra
             "lowest_val_epoch": result.best_epoch, "trained_horizon": kept["meta"]["n_future"]}
 
 
-def ka_rows(model, arrays, k_as: list[int], k_per_ka: int, rounds: int, seed: int,
-            device: torch.device = CPU) -> list[dict]:
-    """One metrics row per K_a: best of K = k_per_ka x K_a samples (mean and std over rounds)."""
+def split_to_score(arrays: WindowArrays, split: str) -> tuple[WindowSet, np.ndarray]:
+    """The windows of `split` as a model sees them (no future) and their true futures (N, n_f, 2)."""
+    return window_set(arrays, split, with_future=False), arrays.future[arrays.split == split]
+
+
+def ka_rows(baseline: baselines.Baseline, test: WindowSet, truth: np.ndarray, checkpoint_dir: Path,
+            k_as: list[int], k_per_ka: int, rounds: int, seed: int) -> list[dict]:
+    """One metrics row per K_a: best of K = k_per_ka x K_a samples (mean and std over rounds) of
+    `baseline` as kept in `checkpoint_dir`, on the `test` windows (true futures `truth`)."""
+    baseline.loaded(checkpoint_dir)  # before the clock, as for every scored model
     rows = []
     for k_a in k_as:
-        scores = evaluate(model, arrays, k_per_ka * k_a, rounds, seed, device)
+        scores = score_rounds(baseline.name, baseline, test, truth, checkpoint_dir, k_per_ka * k_a,
+                              rounds, seed)
         scores.pop("per_round")
         rows.append({"k_a": k_a, **scores})
     return rows
 
 
-def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, n_past: int,
+def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path, n_past: int,
                 params: EvaluateBaselineParams, device: torch.device = CPU
                 ) -> tuple[dict, PredictionRounds]:
     """The metrics record of one baseline on split `params.split` of a window table (the layout of
     `metrics/baselines/<model>_tf<H>.json`) and every round's predictions, in original pixels."""
-    fitted = baselines.get(model).load(checkpoint_dir, device, params.epoch_selection)
-    arrays = select_split(load_windows(table, n_past, horizon), params.split)
-    if len(arrays) == 0:
+    baseline = baselines.Baseline(model, device=device, selection=params.epoch_selection)
+    baseline.loaded(checkpoint_dir)
+    test, truth = split_to_score(load_windows(table, n_past, horizon), params.split)
+    if len(test) == 0:
         raise ValueError(f"{table}: no {params.split} windows")
-    kept = PredictionRounds(arrays.window_id)
-    scores = evaluate(fitted, arrays, params.k, params.rounds, params.seed, device, kept)
+    kept = PredictionRounds(test.window_id)
+    scores = score_rounds(model, baseline, test, truth, checkpoint_dir, params.k, params.rounds,
+                          params.seed, kept)
     return ({"model": model, "horizon": horizon, "split": params.split, "seed": params.seed,
              **scores, **training_facts(model, checkpoint_dir, params.epoch_selection)}, kept)
 
 
-def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | None, metrics: Path,
+def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path, metrics: Path,
                   predictions: Path | None, params: dict, extra: Mapping[str, Any] | None = None) -> None:
     """What the stages `evaluate_baseline`, `evaluate_rpecnet` and their extra-seed twins do:
     `score_split` under `evaluate_baseline` (its threads), `windows.n_past` and `runtime.device` of
@@ -220,5 +213,5 @@ def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path | 
             "model": model, "benchmark": long_term_benchmark(table), "unit": "px",
             "split": evaluation.split, "k": evaluation.k, "horizon": horizon,
             "window_table": str(table),
-            "checkpoint_dir": None if checkpoint_dir is None else str(checkpoint_dir)})
+            "checkpoint_dir": str(checkpoint_dir)})
     write_json({**scores, **(extra or {})}, metrics)

@@ -4,8 +4,8 @@ at one horizon: what the stages `fit_model` and `predict_model` do.
 `fit_to_workdir` hands the model the train and val windows of a horizon table and a fresh
 workdir, times the fit and records its facts in the workdir (`FIT_FACTS`); the workdir replaces
 the old one only when `fit` returns. `predict_to_files` scores the model exactly as
-`baseline_runs.score_to_file` scores a baseline: split, K, rounds and round seeds of
-`evaluate_baseline`, the shared best-of-K metric over seeded rounds, the metrics file in the
+`baseline_runs.score_to_file` scores a baseline (with the same loop, `score_rounds`): split, K,
+rounds and round seeds of `evaluate_baseline`, the shared best-of-K metric over seeded rounds, the metrics file in the
 layout of `metrics/baselines/<model>_tf<H>.json` and every round's predictions in the stored
 format (`pipeline.harness.predictions`), which `score_predictions` then scores beside the others.
 """
@@ -26,7 +26,8 @@ from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import atomic_dir, write_json
-from pipeline.models import ModelEntry, WindowSet, check_predictions, load_model, load_models
+from pipeline.models import (ModelEntry, WindowSet, check_predictions, load_model, load_models,
+                             window_set)
 
 FIT_FACTS = "fit.json"  # written by the harness into every workdir, beside the model's own files
 
@@ -37,15 +38,6 @@ def registered(name: str, params: dict) -> ModelEntry:
     if name not in models:
         raise ParamsError(f"params.yaml:models: no model {name!r}; registered: {sorted(models)}")
     return models[name]
-
-
-def window_set(arrays: WindowArrays, split: str, with_future: bool) -> WindowSet:
-    """The windows of `split` as the model sees them; the future only `with_future`."""
-    keep = arrays.split == split
-    return WindowSet(past=arrays.past[keep], future=arrays.future[keep] if with_future else None,
-                     n_future=arrays.future.shape[1], window_id=arrays.window_id[keep],
-                     scene_id=arrays.scene_id[keep], track_id=arrays.track_id[keep],
-                     first_frame=arrays.first_frame[keep])
 
 
 def limit_torch_threads(threads: int) -> None:
@@ -99,23 +91,26 @@ def fit_facts(workdir: Path, name: str, horizon: int) -> dict[str, Any]:
     return facts
 
 
-def score_rounds(name: str, model, test: WindowSet, truth: np.ndarray, workdir: Path,
-                 evaluation: EvaluateBaselineParams, kept: PredictionRounds) -> dict:
-    """`seeded_rounds` of best-of-K errors (round r: `predict` with seed + r), in the layout of
-    `baseline_runs.evaluate`; `kept` receives each round's checked predictions."""
+def score_rounds(name: str, model, test: WindowSet, truth: np.ndarray, workdir: Path, k: int,
+                 rounds: int, seed: int, kept: PredictionRounds | None = None) -> dict:
+    """`seeded_rounds` of best-of-`k` errors of any model written to `pipeline.models`' contract
+    (the registered ones, and the paper's baselines as `baselines.Baseline`): round r is
+    `predict(test, k, workdir, seed + r)`, checked (`check_predictions`) and scored against `truth`
+    (N, n_f, 2); `kept` receives each round's predictions, exactly as scored."""
     t0 = time.perf_counter()
 
     def score_round(round_seed: int):
-        pred = check_predictions(name, model.predict(test, evaluation.k, workdir, round_seed),
-                                 len(test), evaluation.k, test.n_future)
-        kept.add(round_seed, pred)
+        pred = check_predictions(name, model.predict(test, k, workdir, round_seed), len(test), k,
+                                 test.n_future)  # (N, k, n_f, 2)
+        if kept is not None:
+            kept.add(round_seed, pred)
         return window_errors(pred, truth)
 
-    scored = seeded_rounds(score_round, evaluation.rounds, evaluation.seed)
+    scored = seeded_rounds(score_round, rounds, seed)
     seconds = time.perf_counter() - t0
     per_round = scored.pop("per_round")
-    return {**scored, "k": evaluation.k, "n_windows": len(test), "eval_seconds": seconds,
-            "eval_seconds_per_round": seconds / evaluation.rounds, "per_round": per_round}
+    return {**scored, "k": k, "n_windows": len(test), "eval_seconds": seconds,
+            "eval_seconds_per_round": seconds / rounds, "per_round": per_round}
 
 
 def predict_to_files(name: str, horizon: int, table: Path, workdir: Path, metrics: Path,
@@ -137,7 +132,8 @@ def predict_to_files(name: str, horizon: int, table: Path, workdir: Path, metric
     limit_torch_threads(evaluation.threads)
     print(f"predict_model {name} t_f = {horizon}: {len(test)} {evaluation.split} windows", flush=True)
     kept = PredictionRounds(test.window_id)
-    scores = score_rounds(name, model, test, truth, Path(workdir), evaluation, kept)
+    scores = score_rounds(name, model, test, truth, Path(workdir), evaluation.k, evaluation.rounds,
+                          evaluation.seed, kept)
     record = {"model": name, "horizon": horizon, "split": evaluation.split, "seed": evaluation.seed,
               **scores, "train_seconds": facts["fit_seconds"]}
     kept.write(predictions, {

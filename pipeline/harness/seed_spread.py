@@ -34,9 +34,9 @@ from typing import Any
 from pipeline.config import YnetSeedsParams
 from pipeline.harness.metrics import METRIC_KEYS, summarize_rounds
 from pipeline.io import IntermediateError, index_value, read_json_index
+from pipeline.model_list import BY_NAME, SEEDED_BASELINES
 
-MODELS = ("sgan", "pecnet", "rpecnet")  # every trained long-term baseline
-TRAINED_AS = {"rpecnet": "pecnet"}  # R-PECNet is the t_f = 5 PECNet rolled out
+MODELS = SEEDED_BASELINES  # every trained long-term baseline (S-GAN, PECNet, R-PECNet)
 # What must be equal between the seeds' records for only training to differ.
 EVALUATION_KEYS = (("split", str), ("k", int), ("rounds", int), ("seed", int), ("n_windows", int))
 TRAINING_KEYS = (("best_epoch", int), ("best_val_ade", float), ("trained_epochs", int),
@@ -90,7 +90,7 @@ def spread_entry(model: str, horizon: int, seeds: Mapping[int, tuple[Mapping[str
 
 def main_seed_of(folder: Path, model: str, record: Mapping[str, Any], path: Path) -> tuple[int, Path]:
     """The training seed of a main model, from its `train_baseline` facts (R-PECNet: its PECNet's)."""
-    trained = TRAINED_AS.get(model, model)
+    trained = BY_NAME[model].trained_as or model  # R-PECNet: the t_f = 5 PECNet
     train_path = Path(folder) / "baselines" / f"train_{trained}_tf{index_value(record, 'trained_horizon', int, path)}.json"
     return index_value(read_json_index(train_path), "seed", int, train_path), train_path
 

@@ -49,6 +49,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from pipeline.config import ParamsError, read_params
+from pipeline.data.window_table import WindowArrays
+from pipeline.model_list import PAPER_MODEL_NAMES, PAPER_MODELS
 
 PACKAGE = __name__  # pipeline.models
 FOLDER = Path(__file__).parent
@@ -60,7 +62,7 @@ FOLDER = Path(__file__).parent
 MODELS_SECTION = "models"
 # Names the paper's models' own stages already write under (metrics/baselines/<name>_tf<H>.json,
 # data/predictions/long_term/tf<H>/<name>.parquet): a registered model may not take one.
-RESERVED_MODEL_NAMES = ("ynet", "sgan", "pecnet", "rpecnet")
+RESERVED_MODEL_NAMES = PAPER_MODEL_NAMES
 MODEL_NAME = re.compile(r"[a-z][a-z0-9_]*")
 HEX_COLOUR = re.compile(r"#[0-9a-fA-F]{6}")
 MODEL_KEYS = ("class", "label", "colour", "settings")
@@ -128,6 +130,22 @@ def model_entry(name: Any, line: Any) -> ModelEntry:
     return ModelEntry(name, line["class"], line["label"], line["colour"], dict(line["settings"]))
 
 
+@dataclass(frozen=True)
+class ShownModel:
+    """A model as the report shows it: the paper's (`pipeline.model_list`) or a registered one."""
+
+    name: str
+    label: str
+    colour: str
+
+
+def all_models(registered: Mapping[str, ModelEntry]) -> tuple[ShownModel, ...]:
+    """Every model the pipeline scores, as shown: the paper's in their tables' order, then the
+    `registered` ones (`load_models`) in theirs."""
+    return (*(ShownModel(m.name, m.label, m.colour) for m in PAPER_MODELS),
+            *(ShownModel(name, entry.label, entry.colour) for name, entry in registered.items()))
+
+
 # ---------------------------------------------------------------------------------------------
 # The contract
 
@@ -147,6 +165,26 @@ class WindowSet:
 
     def __len__(self) -> int:
         return len(self.window_id)
+
+
+def window_set(arrays: WindowArrays, split: str, with_future: bool) -> WindowSet:
+    """The windows of `split` as a model sees them; the future only `with_future`."""
+    keep = arrays.split == split
+    return WindowSet(past=arrays.past[keep], future=arrays.future[keep] if with_future else None,
+                     n_future=arrays.future.shape[1], window_id=arrays.window_id[keep],
+                     scene_id=arrays.scene_id[keep], track_id=arrays.track_id[keep],
+                     first_frame=arrays.first_frame[keep])
+
+
+def window_arrays(windows: WindowSet, split: str) -> WindowArrays:
+    """`windows` back as the `WindowArrays` of one split, for code written against the window
+    table (the paper's baselines); a future the model is not shown comes as zeros."""
+    future = (np.zeros((len(windows), windows.n_future, 2)) if windows.future is None
+              else windows.future)  # (N, n_future, 2)
+    return WindowArrays(past=windows.past, future=future, window_id=windows.window_id,
+                        scene_id=windows.scene_id, track_id=windows.track_id,
+                        first_frame=windows.first_frame,
+                        split=np.full(len(windows), split))
 
 
 class Model(Protocol):

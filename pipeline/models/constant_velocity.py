@@ -4,11 +4,11 @@
     models:
       constant_velocity: {class: ConstantVelocity, label: Constant velocity, colour: "#7f7f7f", settings: {}}
 
-The last observed velocity extrapolated, x_{t+s} = x_t + s (x_t - x_{t-1}) (`extrapolate`, here
-once: the baselines' constant velocity and the chain-bias measurement in `pipeline.harness` use it
-too), so its predictions are those of `evaluate_baseline --model constant_velocity`. Deterministic
-and with nothing to learn: `fit` keeps nothing, and the one path is returned k times (its best of
-k is that path).
+The last observed velocity extrapolated, x_{t+s} = x_t + s (x_t - x_{t-1}) (`extrapolate`). The
+pipeline's one constant velocity: the long-term horizons run it as a registered model (stages
+`fit_model` / `predict_model`), inD scores it as its reference through the same contract, and the
+chain-bias measurement uses `extrapolate`. Deterministic and with nothing to learn: `fit` keeps
+nothing, and the one path is returned k times (its best of k is that path).
 """
 
 from __future__ import annotations

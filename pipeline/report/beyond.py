@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from pipeline.model_list import SHORT_TERM_MODELS, label, ours_first
 from pipeline.report.lookups import Absent, Measured, MetricsStore, lookup
 
 BEYOND_FILE = "beyond/long_term.json"  # relative to the metrics folder
@@ -245,7 +246,8 @@ BENCHMARK_COLUMNS = tuple(replace(c, label=c.label.removesuffix(" (px)")) for c 
 DISTANCES = frozenset({"ade", "fde", "fde_joint", "ade_best_endpoint"})  # in the row's unit
 BENCHMARK_LABELS = {"sdd": "SDD (TrajNet)", "eth": "ETH", "hotel": "Hotel", "univ": "Univ",
                     "zara1": "Zara1", "zara2": "Zara2", "ind": "inD"}
-SHORT_TERM_MODELS = (("ynet", "Y-net"), ("sgan", "S-GAN"), ("pecnet", "PECNet"))
+# (key, label) of the short-term models, Y-net first
+SHORT_TERM_ROWS = tuple((name, label(name)) for name in ours_first(SHORT_TERM_MODELS))
 
 
 def cell_decimals(metric: Metric, unit: Any) -> int:
@@ -314,7 +316,7 @@ def benchmark_table(store: MetricsStore, rel: str, models: Sequence[tuple[str, s
 
 def short_term_section(store: MetricsStore) -> dict[str, Any]:
     """The short-term table (`score_short_term_predictions`), or why there is none."""
-    return {**benchmark_table(store, SHORT_TERM_FILE, SHORT_TERM_MODELS),
+    return {**benchmark_table(store, SHORT_TERM_FILE, SHORT_TERM_ROWS),
             "columns": BENCHMARK_COLUMNS}
 
 

@@ -27,12 +27,12 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from pipeline.model_list import label
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number,
                                      lookup, lookup_grid)
 
 VERDICTS = ("holds", "does not hold", "not measured")
 METRICS = ("ade", "fde")
-LABELS = {"ynet": "Y-net", "sgan": "S-GAN", "pecnet": "PECNet", "rpecnet": "R-PECNet"}
 YNET_FILE = "ynet_eval.json"
 IND_FILE = "ind_benchmark.json"
 SEED_SPREAD_FILE = "baseline_seed_spread.json"
@@ -43,10 +43,6 @@ RECURRENT_TF = 5  # R-PECNet is PECNet trained for t_f = 5 s, rolled out for lon
 ETHUCY_SCENES = ("eth", "hotel", "univ", "zara1", "zara2")
 ABLATIONS = {"none": "neither", "cws": "CWS only", "ttst_cws": "TTST + CWS"}  # Table 4's settings
 HALF_DIGIT = 0.0005  # "over 77.1 %" holds from 77.05 %: half the last digit the paper prints
-
-
-def label(model: str) -> str:
-    return LABELS.get(model, model)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -13,28 +13,37 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from pipeline.models import ModelEntry
+from pipeline.model_list import PAPER_MODEL_NAMES, ours_first
+from pipeline.models import ModelEntry, all_models
 
 METRICS = ("ade", "fde")
 # The paper's models this pipeline trains or evaluates with stages of their own; any other model
 # of the paper is "paper only". Every model registered in params.yaml `models` (README "Your model
 # here"; constant velocity is one) follows them: `horizon_models`, `model_colours`.
-PIPELINE_MODELS = frozenset({"ynet", "sgan", "pecnet", "rpecnet"})
-HORIZON_MODELS = (("ynet", "Y-net"), ("pecnet", "PECNet"), ("rpecnet", "R-PECNet"),
-                  ("sgan", "S-GAN"))
-MODEL_COLOURS = {"ynet": "#d62728", "pecnet": "#1f77b4", "rpecnet": "#9467bd", "sgan": "#2ca02c"}
+PIPELINE_MODELS = frozenset(PAPER_MODEL_NAMES)
 DATASETS = {"sdd": "SDD", "ind": "inD"}
 LONG_TERM_TF = 30  # the long-term tables' horizon (s)
 LONG_TERM_KE = 20  # and their K_e (baselines: K)
 
 
 def horizon_models(registered: Mapping[str, ModelEntry]) -> tuple[tuple[str, str], ...]:
-    """(key, label) of every model with a series per horizon: the paper's, then the registered."""
-    return (*HORIZON_MODELS, *((name, entry.label) for name, entry in registered.items()))
+    """(key, label) of every model with a series per horizon, Y-net first: the paper's, then the
+    registered."""
+    return tuple((m.name, m.label) for m in ours_first(all_models(registered), key=lambda m: m.name))
+
+
+def table_models(registered: Mapping[str, ModelEntry]) -> tuple[tuple[str, str], ...]:
+    """(key, label) of every model in the paper's tables' order, then the registered."""
+    return tuple((m.name, m.label) for m in all_models(registered))
 
 
 def model_colours(registered: Mapping[str, ModelEntry]) -> dict[str, str]:
-    return {**MODEL_COLOURS, **{name: entry.colour for name, entry in registered.items()}}
+    return {m.name: m.colour for m in all_models(registered)}
+
+
+# The paper's models alone (no registry at hand: a figure's or a table's default).
+HORIZON_MODELS = horizon_models({})
+MODEL_COLOURS = model_colours({})
 
 
 def relative_difference(ours: float, paper: float | None) -> float | None:

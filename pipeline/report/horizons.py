@@ -22,14 +22,9 @@ from pathlib import Path
 from typing import Any
 
 from pipeline.io import write_with
+from pipeline.models import ShownModel
 from pipeline.report.lookups import dig
 
-# Colours and labels of the report's long-term figures (pipeline.report.common MODEL_COLOURS and the
-# models registry's constant velocity): a model keeps its colour across the report.
-COLOURS = {"ynet": "#d62728", "pecnet": "#1f77b4", "rpecnet": "#9467bd", "sgan": "#2ca02c",
-           "constant_velocity": "#7f7f7f"}
-LABELS = {"ynet": "Y-net", "pecnet": "PECNet", "rpecnet": "R-PECNet", "sgan": "S-GAN",
-          "constant_velocity": "Constant velocity"}
 SUBJECT = "ynet"
 RELEASE_HORIZON = 30  # s: the authors' released windows' horizon, the main Y-net's
 FIGURES = {"curves": "curves.png", "model": "model.png"}
@@ -154,12 +149,20 @@ def _series(rows: Mapping[str, Any], *keys: str) -> tuple[list[int], list[float]
     return [t for t, _ in points], [v for _, v in points]
 
 
+def model_colour(shown: Mapping[str, ShownModel], model: str) -> str | None:
+    return shown[model].colour if model in shown else None
+
+
+def model_label(shown: Mapping[str, ShownModel], model: str) -> str:
+    return shown[model].label if model in shown else model
+
+
 def _models(per_horizon: Mapping[str, Any]) -> list[str]:
     found = {m for row in per_horizon.values() for m in (row.get("models") or {})}
     return sorted(found, key=lambda m: (m != SUBJECT, m))
 
 
-def plot_curves(record: Mapping[str, Any], path: Path) -> None:
+def plot_curves(record: Mapping[str, Any], path: Path, shown: Mapping[str, ShownModel]) -> None:
     plt = _pyplot()
     per_horizon = record["per_horizon"]
     population = record["one_population"]
@@ -168,17 +171,18 @@ def plot_curves(record: Mapping[str, Any], path: Path) -> None:
         top, bottom = axes[0, col], axes[1, col]
         for model in _models(per_horizon):
             xs, ys = _series(per_horizon, "models", model, metric)
-            top.plot(xs, ys, marker="o", color=COLOURS.get(model), label=LABELS.get(model, model))
+            top.plot(xs, ys, marker="o", color=model_colour(shown, model),
+                     label=model_label(shown, model))
             xs, ys = _series(population["per_horizon"], "longest_predictions_truncated", model,
                              metric)
-            bottom.plot(xs, ys, marker="o", color=COLOURS.get(model),
-                        label=f"{LABELS.get(model, model)}, {population['horizon']}-s model, "
+            bottom.plot(xs, ys, marker="o", color=model_colour(shown, model),
+                        label=f"{model_label(shown, model)}, {population['horizon']}-s model, "
                               "first t s")
             xs, ys = _series(population["per_horizon"], "own_horizon_models", model, metric)
             if xs:
                 bottom.plot(xs, ys, marker="s", linestyle="--", markerfacecolor="none",
-                            color=COLOURS.get(model),
-                            label=f"{LABELS.get(model, model)}, each horizon's own model")
+                            color=model_colour(shown, model),
+                            label=f"{model_label(shown, model)}, each horizon's own model")
         if metric == "ade":
             xs, ys = _series(per_horizon, "straight_to_goal", "ade")
             top.plot(xs, ys, "k:", marker=".", label="straight line to the true goal (FDE 0)")
@@ -203,7 +207,7 @@ def plot_curves(record: Mapping[str, Any], path: Path) -> None:
     plt.close(fig)
 
 
-def plot_model(record: Mapping[str, Any], path: Path) -> None:
+def plot_model(record: Mapping[str, Any], path: Path, shown: Mapping[str, ShownModel]) -> None:
     plt = _pyplot()
     per_horizon = record["per_horizon"]
     population = record["one_population"]["per_horizon"]
@@ -258,7 +262,8 @@ def plot_model(record: Mapping[str, Any], path: Path) -> None:
     ax = axes[1, 0]
     for model in _models(per_horizon):
         xs, ys = _series(per_horizon, "models", model, "fde_over_ade")
-        ax.plot(xs, ys, marker="o", color=COLOURS.get(model), label=LABELS.get(model, model))
+        ax.plot(xs, ys, marker="o", color=model_colour(shown, model),
+                label=model_label(shown, model))
     ax.set_title("FDE / ADE (means over the test windows), own windows", fontsize=10)
     ax.set_xlabel("t_f (s)")
     ax.set_ylabel("FDE / ADE")
@@ -288,13 +293,15 @@ def plot_model(record: Mapping[str, Any], path: Path) -> None:
     plt.close(fig)
 
 
-def draw_figures(record: Mapping[str, Any], folder: Path) -> dict[str, str]:
-    """Both figures into `folder`; {name: path} as written (the record's `figures`)."""
+def draw_figures(record: Mapping[str, Any], folder: Path,
+                 shown: Mapping[str, ShownModel]) -> dict[str, str]:
+    """Both figures into `folder`, each model drawn as `shown` (name -> label and colour:
+    `pipeline.models.all_models`); {name: path} as written (the record's `figures`)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = {name: folder / file for name, file in FIGURES.items()}
-    plot_curves(record, paths["curves"])
-    plot_model(record, paths["model"])
+    plot_curves(record, paths["curves"], shown)
+    plot_model(record, paths["model"], shown)
     return {name: path.as_posix() for name, path in paths.items()}
 
 

@@ -78,7 +78,7 @@ from pipeline.report import horizons
 from pipeline.report.beyond import beyond_section
 from pipeline.report.claims import claims_section
 from pipeline.report.common import (LONG_TERM_KE, LONG_TERM_TF, FigureSlot, horizon_models,
-                                    model_colours)
+                                    model_colours, table_models)
 from pipeline.report.data_and_segmentation import (chain_bias_rows, scene_count_rows,
                                                    segmentation_gallery, segmentation_scores,
                                                    window_count_rows)
@@ -192,8 +192,8 @@ def animation_section(folder: Path | None, html_dir: Path) -> dict[str, Any]:
     return {"absent": None, "benchmarks": benchmarks}
 
 
-def horizon_analysis_section(store: MetricsStore, folder: Path | None,
-                             html_dir: Path) -> dict[str, Any]:
+def horizon_analysis_section(store: MetricsStore, folder: Path | None, html_dir: Path,
+                             labels: Mapping[str, str]) -> dict[str, Any]:
     """Stage `horizon_analysis`' record as `pipeline.report.horizons.section` reads it, its
     figures' <img> src relative to the page (they stay in the stage's folder)."""
     record = store.record("horizon_analysis.json")
@@ -203,7 +203,7 @@ def horizon_analysis_section(store: MetricsStore, folder: Path | None,
     figures = [{"src": rel_src(folder / name, html_dir), "found": (folder / name).is_file()}
                for name in content["figures"]] if folder is not None else []
     return {"absent": None, "source": store.where("horizon_analysis.json"), **content,
-            "figures": figures, "labels": horizons.LABELS}
+            "figures": figures, "labels": dict(labels)}
 
 
 def data_section(store: MetricsStore, scene_counts: Path) -> dict[str, Any]:
@@ -261,12 +261,13 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         "summaries": [summarize(t) for t in tables],
         "claims": claims_section(store, paper),
         "tables": tables,
-        "diagnostics": diagnostics_section(store, paper),
+        "diagnostics": diagnostics_section(store, paper, table_models(registered)),
         **figures,
         "beyond": beyond_section(store, LONG_TERM_TF, horizon_models(registered),
                                  model_colours(registered), slot),
         "seed_spread": seed_spread_section(store),
-        "horizon_analysis": horizon_analysis_section(store, inputs.horizon_figures, html_dir),
+        "horizon_analysis": horizon_analysis_section(store, inputs.horizon_figures, html_dir,
+                                                     dict(table_models(registered))),
         "animations": animation_section(inputs.animations, html_dir),
         "data": data_section(store, inputs.scene_counts),
         "n_test_videos": len(TEST_VIDEOS),

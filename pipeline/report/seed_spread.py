@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from pipeline.report.common import HORIZON_MODELS
+from pipeline.model_list import label
 from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, is_number
 from pipeline.report.provenance import SEED_SPREAD_FILE
 
@@ -41,11 +41,11 @@ def seed_spread_row(entry: Any, source: str) -> SeedSpreadRow | Absent:
     if entry.get("not_run_reason"):
         why = str(entry["not_run_reason"])
         return SeedSpreadRow(
-            model=dict(HORIZON_MODELS).get(entry["model"], str(entry["model"])), horizon=entry["horizon"],
+            model=label(str(entry["model"])), horizon=entry["horizon"],
             ade=Absent(why, "status"), fde=Absent(why, "status"), ade_round_std=None,
             fde_round_std=None, per_seed=per_seed, not_run=why)
     return SeedSpreadRow(
-        model=dict(HORIZON_MODELS).get(entry["model"], str(entry["model"])), horizon=entry["horizon"],
+        model=label(str(entry["model"])), horizon=entry["horizon"],
         ade=as_measured(over.get("ade"), len(per_seed), f"{where}: ade over training seeds"),
         fde=as_measured(over.get("fde"), len(per_seed), f"{where}: fde over training seeds"),
         ade_round_std=main.get("ade") if is_number(main.get("ade")) else None,

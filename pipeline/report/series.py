@@ -103,15 +103,16 @@ def paper_long_term_cells(paper: Mapping) -> dict[str, dict[str, float]]:
             if c["dataset"] == "sdd" and c["k_a"] == 1}
 
 
-def diagnostics_section(store: MetricsStore, paper: Mapping) -> dict[str, Any]:
+def diagnostics_section(store: MetricsStore, paper: Mapping,
+                        models: Iterable[tuple[str, str]]) -> dict[str, Any]:
     """What brackets Table 3 (t_f = 30 s), never in place of its headline: every model at K = 1
     beside K = 20, R-PECNet's compounding roll-out (`pipeline.report.diagnostics`) and PECNet's
     epochs selected on the test set as upstream does (`pipeline.report.compat`), with the paper's
-    cells beside them."""
+    cells beside them. `models`: (key, label) of its rows' models (`common.table_models`)."""
     cells = paper_long_term_cells(paper)
     selection = store.record("pecnet_test_selection.json")
     return {"title": DIAGNOSTICS_TITLE, "t_f": LONG_TERM_TF, "paper": cells, "headline": HEADLINE,
-            "rows": diagnostics_from_store(store, LONG_TERM_TF),
+            "rows": diagnostics_from_store(store, LONG_TERM_TF, tuple(models)),
             "compat": compat_rows(None if isinstance(selection, Absent) else selection,
                                   {LONG_TERM_TF: cells["pecnet"]} if "pecnet" in cells else None),
             "compat_absent": selection if isinstance(selection, Absent) else None,

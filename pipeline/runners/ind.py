@@ -45,7 +45,7 @@ import pandas as pd
 import torch
 
 from pipeline.config import (CwsParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams,
-                             TRAINED_BASELINES, RuntimeParams, SegmentationParams,
+                             RuntimeParams, SegmentationParams,
                              TrainBaselineParams, TtstParams, load_profile, load_section,
                              YnetSettings)
 from pipeline.data.semantic_maps import iou_summary, predicted_labels, resize_probabilities
@@ -54,9 +54,12 @@ from pipeline.device import CPU
 from pipeline.harness import baseline_runs, baselines
 from pipeline.harness.baselines.common import select_split
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet
+from pipeline.harness.model_runs import score_rounds
 from pipeline.harness.predictions import IND_BENCHMARK, PredictionRounds, write_no_predictions
 from pipeline.io import (IntermediateError, atomic_dir, check_array, index_value, read_json_index,
                          read_npz, write_npz)
+from pipeline.model_list import BASELINES, OURS, TRAINED_BASELINES
+from pipeline.models.constant_velocity import ConstantVelocity
 from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.segmentation import (downsample_pair, epoch_batches, export_model, learning_rate,
                                            pad_to_multiple, scaled_size, train_step)
@@ -68,8 +71,9 @@ from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
 
 MAPS = "segmentation/maps.npz"  # in the checkpoint folder: the maps Y-net trained on, for scoring
-BASELINE_MODELS = (*TRAINED_BASELINES, "rpecnet", "constant_velocity")
-IND_MODELS = ("ynet", *BASELINE_MODELS)  # one stored predictions file each
+REFERENCE = "constant_velocity"  # the registered model inD scores beside the paper's
+BASELINE_MODELS = (*BASELINES, REFERENCE)
+IND_MODELS = (OURS, *BASELINE_MODELS)  # one stored predictions file each
 
 
 @dataclass(frozen=True)
@@ -324,10 +328,10 @@ def score_ynet(test: WindowArrays, maps: dict[str, np.ndarray], sizes: dict[str,
                                   test.future, label="inD ", kept=kept)}
 
 
-def baseline_dirs(checkpoint_dir: Path, horizon: int, base_horizon: int) -> dict[str, Path | None]:
-    """model -> its checkpoint folder (R-PECNet: the PECNet of the base horizon; none for CV)."""
+def baseline_dirs(checkpoint_dir: Path, horizon: int, base_horizon: int) -> dict[str, Path]:
+    """baseline -> its checkpoint folder (R-PECNet: the PECNet of the base horizon)."""
     dirs = {model: checkpoint_dir / f"{model}_tf{horizon}" for model in TRAINED_BASELINES}
-    return {**dirs, "rpecnet": checkpoint_dir / f"pecnet_tf{base_horizon}", "constant_velocity": None}
+    return {**dirs, "rpecnet": checkpoint_dir / f"pecnet_tf{base_horizon}"}
 
 
 def train_baselines(long: WindowArrays, base: WindowArrays, settings: IndTrainSettings,
@@ -351,21 +355,27 @@ def score_baselines(long: WindowArrays, base: WindowArrays, settings: IndEvalSet
                     checkpoint_dir: Path, device: torch.device = CPU
                     ) -> tuple[dict[str, dict], dict[str, PredictionRounds]]:
     """model -> scores in the layout of metrics/baselines/<model>_tf30.json, and model -> every
-    round's predictions, as scored."""
+    round's predictions, as scored: the paper's baselines and the reference, constant velocity
+    (nothing to fit, so no workdir of its own), all through the models' contract and one loop."""
     evaluation = settings.evaluate_baseline
     torch.set_num_threads(settings.threads)
     horizon = long.future.shape[1]
     dirs = baseline_dirs(checkpoint_dir, horizon, base.future.shape[1])
-    test = select_split(long, evaluation.split)
+    test, truth = baseline_runs.split_to_score(long, evaluation.split)
+    models = {model: baselines.Baseline(model, device=device) for model in BASELINES}
     results, kept = {}, {}
     for model in BASELINE_MODELS:
-        fitted = baselines.get(model).load(dirs[model], device)
+        if model == REFERENCE:
+            scored, workdir, facts = ConstantVelocity({}), checkpoint_dir, {"train_seconds": 0.0}
+        else:
+            scored, workdir = models[model], dirs[model]
+            scored.loaded(workdir)  # before the clock, as for every scored model
+            facts = baseline_runs.training_facts(model, workdir)
         kept[model] = PredictionRounds(test.window_id)
-        scores = baseline_runs.evaluate(fitted, test, evaluation.k, evaluation.rounds,
-                                        evaluation.seed, device, kept[model])
+        scores = score_rounds(model, scored, test, truth, workdir, evaluation.k, evaluation.rounds,
+                              evaluation.seed, kept[model])
         results[model] = {"model": model, "horizon": horizon, "split": evaluation.split,
-                          "seed": evaluation.seed, **scores,
-                          **baseline_runs.training_facts(model, dirs[model])}
+                          "seed": evaluation.seed, **scores, **facts}
     return results, kept
 
 
@@ -528,7 +538,7 @@ def evaluate_benchmark(ind_dir: Path, checkpoint_dir: Path, trained: dict, setti
     for model, rounds in kept.items():
         predictions[model] = (rounds, prediction_metadata(
             model, table, split=settings.evaluate_baseline.split, k=settings.evaluate_baseline.k,
-            checkpoint_dir=None if dirs[model] is None else str(dirs[model])))
+            checkpoint_dir=str(dirs[model]) if model in dirs else None))  # constant velocity: none
     record = {
         "provided": True, "status": "ok", "profile": settings.profile,
         "t_f": int(index["horizon"]), "k_e": settings.eval.k_e,

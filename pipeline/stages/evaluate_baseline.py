@@ -1,7 +1,7 @@
 """Stage `evaluate_baseline@<model>-<t_f>`: score one baseline at one horizon with the shared metric.
 
-Loads the model (`constant_velocity` needs no checkpoint; `sgan` / `pecnet` take the checkpoint
-folder trained for this horizon; `rpecnet` the t_f = 5 PECNet's), draws K samples per window of the
+Loads the model (`sgan` / `pecnet` from the checkpoint folder trained for this horizon; `rpecnet`
+the t_f = 5 PECNet's), draws K samples per window of the
 chosen split in `rounds` seeded rounds, and writes best-of-K ADE / FDE, independent and joint, as
 mean and spread over rounds, with the training facts the checkpoint records
 (`pipeline.harness.baseline_runs.score_split`), and every round's predictions in original pixels
@@ -30,15 +30,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--model", required=True, choices=sorted(baselines.BASELINES))
     parser.add_argument("--horizon", type=int, required=True, help="t_f in seconds")
     parser.add_argument("--table", type=Path, required=True, help="window table (parquet)")
-    parser.add_argument("--checkpoint-dir", type=Path, default=None,
-                        help="trained model (rpecnet: the t_f = 5 PECNet); not for constant_velocity")
+    parser.add_argument("--checkpoint-dir", type=Path, required=True,
+                        help="trained model (rpecnet: the t_f = 5 PECNet)")
     parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
     parser.add_argument("--predictions", type=Path, required=True,
                         help="every round's test predictions written (parquet)")
     args = parser.parse_args(argv)
-    needs_checkpoint = args.model != "constant_velocity"
-    if needs_checkpoint != (args.checkpoint_dir is not None):
-        parser.error(f"--checkpoint-dir is {'required' if needs_checkpoint else 'not taken'} for {args.model}")
     score_to_file(args.model, args.table, args.horizon, args.checkpoint_dir, args.metrics,
                   args.predictions, read_params())
 

@@ -22,8 +22,7 @@ from pipeline.config import (EvalParams, EvaluateBaselineParams, RuntimeParams, 
 from pipeline.data.window_table import load_windows
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness import baselines
-from pipeline.harness.baseline_runs import ka_rows
-from pipeline.harness.baselines.common import select_split
+from pipeline.harness.baseline_runs import ka_rows, split_to_score
 from pipeline.io import write_json
 
 
@@ -43,11 +42,12 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(runtime.device, purpose=SCORING)
     print(f"evaluate_pecnet_ka: {describe(device)}", flush=True)
 
-    model = baselines.get("pecnet").load(args.checkpoint_dir, device, params.epoch_selection)
-    arrays = select_split(load_windows(args.table, n_past, args.horizon), params.split)
-    if len(arrays) == 0:
+    pecnet = baselines.Baseline("pecnet", device=device, selection=params.epoch_selection)
+    test, truth = split_to_score(load_windows(args.table, n_past, args.horizon), params.split)
+    if len(test) == 0:
         raise ValueError(f"{args.table}: no {params.split} windows")
-    rows = ka_rows(model, arrays, k_as, params.k, params.rounds, params.seed, device)
+    rows = ka_rows(pecnet, test, truth, args.checkpoint_dir, k_as, params.k, params.rounds,
+                   params.seed)
     for row in rows:
         print(f"PECNet K_a = {row['k_a']} (K = {row['k']}): ADE {row['ade']['mean']:.2f}  FDE {row['fde']['mean']:.2f}")
     write_json(rows, args.metrics)

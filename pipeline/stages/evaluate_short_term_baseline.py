@@ -24,12 +24,13 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTermModelsParams,
+from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams,
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json
+from pipeline.model_list import TRAINED_BASELINES
 from pipeline.runners.short_term import prediction_metadata, run_record, score_baseline
 from pipeline.runners.short_term_baselines import load_in_unit
 

@@ -8,7 +8,7 @@ the sampling its evaluation stored; a horizon the profile does not train says so
 over every window table; Y-net's validation curves (`pipeline.harness.horizon_analysis`,
 `pipeline.runners.horizon_reruns`). Writes the record and two figures (`pipeline.report.horizons`).
 Params: `windows.horizons`, `windows.n_past`, `windows.release_horizon`, `eval.<profile>`'s
-`batch_size`, `chunk_size`, `bf16`.
+`batch_size`, `chunk_size`, `bf16`; `models` (the registered models' labels and colours).
 
     python -m pipeline.stages.horizon_analysis --horizon-windows data/horizon_windows \
         --release-windows data/windows/release_tf30.parquet \
@@ -31,6 +31,7 @@ import pandas as pd
 from pipeline.config import EvalParams, WindowParams, load_profile, load_section, read_params
 from pipeline.harness import horizon_analysis as analysis
 from pipeline.io import exit_on_bad_intermediate, write_json
+from pipeline.models import all_models, load_models
 from pipeline.report.horizons import draw_figures, print_summary
 from pipeline.runners.horizon_reruns import own_horizon_ynet
 
@@ -90,7 +91,8 @@ def main(argv: list[str] | None = None) -> None:
                            eval_params)
     record = analysis.analyse(horizons, per_horizon, tables, runs.curves, own,
                               per_window={t: (analysis.SUBJECT,) for t in horizons if t > main_t})
-    record["figures"] = draw_figures(record, args.figures)
+    shown = {model.name: model for model in all_models(load_models(params))}
+    record["figures"] = draw_figures(record, args.figures, shown)
     record["seconds"] = time.perf_counter() - start
     write_json(record, args.out)
     print_summary(record)

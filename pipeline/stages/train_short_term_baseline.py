@@ -24,11 +24,12 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config import (DATASETS, TRAINED_BASELINES, RuntimeParams, ShortTermModelsParams,
+from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams,
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
+from pipeline.model_list import TRAINED_BASELINES
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import benchmark_of, train_baseline, training_record
 from pipeline.runners.short_term_baselines import baseline_config, load_in_unit

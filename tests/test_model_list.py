@@ -1,0 +1,95 @@
+"""One list of models: `pipeline.model_list` (the paper's) and params.yaml `models` (the
+registered). dvc.yaml cannot import Python, so its matrices and plots write the names out; these
+tests hold them to the list, and the list's derived views to each other."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from pipeline.config import MODELS as SHORT_TERM_EPOCH_KEYS
+from pipeline.config import DATASETS, read_params
+from pipeline.model_list import (BASELINES, BY_NAME, OURS, PAPER_MODEL_NAMES, PAPER_MODELS,
+                                 SEEDED_BASELINES, SHORT_TERM_MODELS, TRAINED_BASELINES, label,
+                                 ours_first)
+from pipeline.models import RESERVED_MODEL_NAMES, all_models, load_models
+from pipeline.report.common import horizon_models, model_colours, table_models
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def stages() -> dict:
+    return yaml.safe_load((ROOT / "dvc.yaml").read_text())["stages"]
+
+
+@pytest.fixture(scope="module")
+def params() -> dict:
+    return read_params(ROOT / "params.yaml")
+
+
+def matrix_models(stage: dict) -> list[str]:
+    return stage["matrix"]["model"]
+
+
+@pytest.mark.parametrize("name", ["train_baseline", "evaluate_baseline", "train_baseline_seed",
+                                  "evaluate_baseline_seed"])
+def test_the_long_term_baseline_matrices_are_the_trained_baselines(stages, name):
+    assert matrix_models(stages[name]) == list(TRAINED_BASELINES)
+
+
+@pytest.mark.parametrize("name", ["fit_model", "predict_model"])
+def test_the_registered_model_matrices_are_params_models(stages, name):
+    assert stages[name]["matrix"]["model"] == "${models}"
+
+
+@pytest.mark.parametrize("name", ["train_short_term_baseline", "evaluate_short_term_baseline"])
+def test_every_short_term_baseline_runs_on_every_benchmark(stages, name):
+    runs = stages[name]["foreach"]
+    expected = {f"{dataset}-{model}" for dataset in DATASETS for model in TRAINED_BASELINES}
+    assert set(runs) == expected
+    assert all(f"{run['dataset']}-{run['model']}" == key for key, run in runs.items())
+
+
+def test_the_horizon_figure_plot_lists_every_model_as_the_report_orders_them(stages, params):
+    dvc = yaml.safe_load((ROOT / "dvc.yaml").read_text())
+    plot = next(p for p in dvc["plots"] if "reports/plots/horizon_ade.json" in p)
+    shown = [key for key, _ in horizon_models(load_models(params))]
+    assert plot["reports/plots/horizon_ade.json"]["y"] == shown
+
+
+@pytest.mark.parametrize("name", ["train_ynet_horizon", "evaluate_ynet_horizon"])
+def test_the_y_net_horizon_stages_run_every_horizon_but_the_main_model_s(stages, params, name):
+    windows = params["windows"]
+    assert stages[name]["foreach"] == [t for t in windows["horizons"]
+                                       if t != windows["release_horizon"]]
+
+
+def test_the_derived_lists_agree():
+    assert PAPER_MODEL_NAMES == ("sgan", "pecnet", "rpecnet", "ynet")  # the paper's Table 3 order
+    assert RESERVED_MODEL_NAMES == PAPER_MODEL_NAMES
+    assert set(TRAINED_BASELINES) <= set(SEEDED_BASELINES) <= set(BASELINES)
+    assert OURS not in BASELINES and BY_NAME["rpecnet"].trained_as in TRAINED_BASELINES
+    assert SHORT_TERM_EPOCH_KEYS == ("ynet", "sgan", "pecnet")  # Y-net first, then the paper's order
+    assert set(SHORT_TERM_MODELS) == set(SHORT_TERM_EPOCH_KEYS)
+    assert [label(m.name) for m in PAPER_MODELS] == ["S-GAN", "PECNet", "R-PECNet", "Y-net"]
+    assert label("constant_velocity") == "constant_velocity"  # not the paper's: its own name
+
+
+def test_registered_models_follow_the_paper_s_with_their_own_labels_and_colours(params):
+    registered = load_models(params)
+    shown = all_models(registered)
+    assert [m.name for m in shown] == [*PAPER_MODEL_NAMES, *registered]
+    assert table_models(registered)[:4] == tuple((m.name, m.label) for m in PAPER_MODELS)
+    assert horizon_models(registered)[0] == ("ynet", "Y-net")
+    colours = model_colours(registered)
+    assert len(set(colours.values())) == len(colours), "two models share a colour"
+    assert colours["constant_velocity"] == registered["constant_velocity"].colour
+
+
+def test_ours_first_keeps_the_others_in_order():
+    assert ours_first(["sgan", "pecnet", "ynet", "cv"]) == ["ynet", "sgan", "pecnet", "cv"]
+    assert ours_first([("a", 1), ("ynet", 2)], key=lambda item: item[0]) == [("ynet", 2), ("a", 1)]
+    assert ours_first(["sgan"]) == ["sgan"]
