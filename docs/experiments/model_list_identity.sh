@@ -1,0 +1,44 @@
+#!/bin/bash
+# Old (main) vs new (wt-models) code on the same inputs: long-term baseline scoring and training.
+# Usage: edit the two roots (before / after) and CK (baseline checkpoints of a finished make repro), then run; compare with compare.py below.
+set -u
+HW=/work/main/data/horizon_windows
+CK=/work/wt-clock/checkpoints
+for side in old new; do
+  root=/work/main; [ $side = new ] && root=/work/wt-models
+  out=/work/runs/ident/$side; rm -rf $out; mkdir -p $out
+  cd $root
+  export PYTHONPATH=$root
+  py="nice -n 15 /work/main/.venv/bin/python -m"
+  $py pipeline.stages.evaluate_baseline --model sgan --horizon 30 --table $HW/tf30.parquet --checkpoint-dir $CK/sgan_tf30 --metrics $out/sgan_tf30.json --predictions $out/sgan_tf30.parquet
+  $py pipeline.stages.evaluate_baseline --model pecnet --horizon 10 --table $HW/tf10.parquet --checkpoint-dir $CK/pecnet_tf10 --metrics $out/pecnet_tf10.json --predictions $out/pecnet_tf10.parquet
+  $py pipeline.stages.evaluate_rpecnet --horizon 30 --table $HW/tf30.parquet --checkpoint-dir $CK/pecnet_tf5 --metrics $out/rpecnet_tf30.json --predictions $out/rpecnet_tf30.parquet
+  $py pipeline.stages.evaluate_pecnet_ka --table $HW/tf30.parquet --checkpoint-dir $CK/pecnet_tf30 --metrics $out/pecnet_ka.json
+  $py pipeline.stages.predict_model --model constant_velocity --horizon 30 --table $HW/tf30.parquet --workdir /work/main/checkpoints/models/constant_velocity_tf30 --metrics $out/cv_tf30.json --predictions $out/cv_tf30.parquet
+  $py pipeline.stages.train_baseline --model sgan --horizon 60 --table $HW/tf60.parquet --checkpoint-dir $out/ck/sgan_tf60 --metrics $out/train_sgan_tf60.json
+  $py pipeline.stages.train_baseline --model pecnet --horizon 60 --table $HW/tf60.parquet --checkpoint-dir $out/ck/pecnet_tf60 --metrics $out/train_pecnet_tf60.json
+done > /work/runs/ident/log 2>&1
+echo done > /work/runs/ident/finished
+# """Old vs new outputs: every file byte-identical, or (JSON) identical but for timings."""
+# import hashlib, json, sys
+# from pathlib import Path
+# TIMINGS = {"eval_seconds", "eval_seconds_per_round", "train_seconds", "wall_seconds", "seconds_per_epoch"}
+# def strip(x):
+#     if isinstance(x, dict):
+#         return {k: strip(v) for k, v in x.items() if k not in TIMINGS}
+#     if isinstance(x, list):
+#         return [strip(v) for v in x]
+#     return x
+# old, new = Path("/work/runs/ident/old"), Path("/work/runs/ident/new")
+# same = differ = 0
+# for path in sorted(p for p in old.rglob("*") if p.is_file()):
+#     rel = path.relative_to(old); other = new / rel
+#     if not other.exists():
+#         print("MISSING", rel); differ += 1; continue
+#     if path.read_bytes() == other.read_bytes():
+#         print("identical bytes      ", rel); same += 1
+#     elif path.suffix == ".json" and strip(json.loads(path.read_text())) == strip(json.loads(other.read_text())):
+#         print("identical but timings", rel); same += 1
+#     else:
+#         print("DIFFERENT            ", rel); differ += 1
+# print(f"{same} same, {differ} different")
