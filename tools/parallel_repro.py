@@ -199,15 +199,15 @@ def machine_gpus() -> list[str]:
     return visible_gpus(os.environ.get("CUDA_VISIBLE_DEVICES"), listing)
 
 
-def start_local_cluster(cores: int):
-    """The default cluster: `local_worker_specs` of this machine. Without GPUs its one worker runs
-    in this process (its tasks only wait on child processes); GPU workers are processes, each with
-    its CUDA_VISIBLE_DEVICES."""
+def start_local_cluster(cores: int, gpus: list[str] | None = None):
+    """The default cluster: `local_worker_specs` of this machine (its `machine_gpus` unless
+    `gpus` says). Without GPUs its one worker runs in this process (its tasks only wait on child
+    processes); GPU workers are processes, each with its CUDA_VISIBLE_DEVICES."""
     import dask
     import psutil
     from distributed import LocalCluster, Nanny, Scheduler, SpecCluster
 
-    gpus = machine_gpus()
+    gpus = machine_gpus() if gpus is None else gpus
     specs = local_worker_specs(cores, gpus, psutil.virtual_memory().total / 2**30)
     with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
         if not gpus:
