@@ -16,8 +16,13 @@ $(VENV)/.installed: pyproject.toml requirements.lock
 	$(BIN)/python -m pip install -q -c requirements.lock -e '.[test]'
 	touch $@
 
-repro: env  # dvc repro, two single-threaded stages at once, each clocked (tools/timed_repro.py)
-	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python tools/timed_repro.py --jobs 2
+# the stage commands run on a Dask LocalCluster of this machine (JOBS threads; one worker per GPU),
+# or on a running cluster: make repro DASK_ADDRESS=tcp://host:8786 (docs/cluster.md)
+JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+DASK_ADDRESS ?=
+repro: env  # dvc repro, two single-threaded stages at once on 2 cores, each clocked (tools/timed_repro.py)
+	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python tools/timed_repro.py --jobs $(JOBS) \
+		$(if $(DASK_ADDRESS),--address $(DASK_ADDRESS))
 
 test: env
 	if [ "$$CI" = true ]; then bash tests/setup_chromium.sh; fi

@@ -1,5 +1,5 @@
-"""tools/parallel_repro.py: single-threaded stages run two at a time, with the lock a serial
-`dvc repro` would write. The integration tests build a four-stage DVC project in a temp folder:
+"""tools/parallel_repro.py on its default cluster (a LocalCluster of this machine): single-threaded
+stages run two at a time, with the lock a serial `dvc repro` would write. The integration tests build a four-stage DVC project in a temp folder:
 prep -> (left, right) -> join, where left and right sleep and record when they ran."""
 
 import json
@@ -44,13 +44,11 @@ def test_a_stage_shares_the_machine_only_if_every_threads_key_it_declares_is_one
     assert parallel_repro.sharing({"epochs": {5: 3, 10: 3}, "threads": 1}) == SHARED  # int keys
 
 
-def test_a_stage_starts_beside_others_only_when_all_are_single_threaded():
-    assert parallel_repro.can_start(ALONE, [], jobs=2)
-    assert parallel_repro.can_start(SHARED, [SHARED], jobs=2)
-    assert not parallel_repro.can_start(SHARED, [SHARED, SHARED], jobs=2)
-    assert not parallel_repro.can_start(SHARED, [SHARED], jobs=1)
-    assert not parallel_repro.can_start(ALONE, [SHARED], jobs=2)
-    assert not parallel_repro.can_start(SHARED, [ALONE], jobs=2)
+def test_a_single_threaded_stage_asks_for_one_thread_and_another_for_a_whole_worker():
+    assert parallel_repro.stage_resources(SHARED, None, None, 2, False) == {"threads": 1}
+    assert parallel_repro.stage_resources(ALONE, None, None, 2, False) == {"threads": 2}
+    assert parallel_repro.stage_resources(ALONE, "cpu", 8, 4, True) == {"threads": 4,
+                                                                        "memory_gb": 8.0}
 
 
 def test_a_stage_is_ready_once_its_upstream_stages_finished():

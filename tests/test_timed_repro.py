@@ -138,6 +138,13 @@ def test_jobs_is_taken_out_of_the_dvc_arguments():
             timed_repro.split_jobs(bad)
 
 
+def test_address_is_taken_out_of_the_dvc_arguments():
+    assert timed_repro.split_address(["--address", "tcp://h:8786", "-f"]) == ("tcp://h:8786", ["-f"])
+    assert timed_repro.split_address(["report"]) == (None, ["report"])
+    with pytest.raises(SystemExit, match="--address"):
+        timed_repro.split_address(["--address"])
+
+
 def test_with_jobs_parallel_repro_runs_the_stages_each_clocked(tmp_path, monkeypatch):
     """`make repro` passes --jobs 2: parallel_repro runs the stages, each finished stage is written
     to the file at once, and the record says how many ran at most at once."""
@@ -145,7 +152,7 @@ def test_with_jobs_parallel_repro_runs_the_stages_each_clocked(tmp_path, monkeyp
     monkeypatch.setattr(timed_repro, "current_stages", lambda: {"tracks", "windows@30", "report"})
     calls, written = [], []
 
-    def fake_parallel(args, jobs, on_stage_done):
+    def fake_parallel(args, jobs, on_stage_done, address=None):
         calls.append((args, jobs))
         for name, seconds in (("tracks", 30.5), ("windows@30", 60.0)):
             on_stage_done(name, seconds)

@@ -1,20 +1,52 @@
-"""`dvc repro` that runs two single-threaded stages at once: the second core is not left idle.
+"""`dvc repro` whose stage commands run as tasks on a Dask `distributed` cluster.
 
-`dvc repro` runs one stage at a time. In the `cpu` profile most of the stage time is
-single-threaded (the baselines, the segmentation, every Y-net training, the short-term Y-net
-scoring: README "Quick start"), so one at a time the other core idles. Here DVC's own stage objects do everything DVC would (the staleness check, removing the
-outputs, the run cache, hashing, committing, the lock update), all in this one process and one at
-a time; only the stages' commands run as child processes, up to `jobs` of them at once when every
-one of them is single-threaded, otherwise alone. A stage starts only once every stage it depends
-on has finished, as with `dvc repro`; outputs and `dvc.lock` are therefore a serial run's.
+DVC stays the judge, in this one process (the driver) and one stage at a time: DVC's own stage
+objects check staleness, remove the outputs, restore from the run cache, save the deps, and after
+the command hash, commit and write dvc.lock (`prepare` and `commit` below). Only the commands run
+on the cluster: each stage's commands become one task, submitted once every stage it depends on
+has finished, as with `dvc repro`; outputs and `dvc.lock` are therefore a serial run's.
 
-A stage counts as single-threaded when its dvc.yaml `meta: {threads: N}` says 1 (the data steps,
-which no param gives a thread count) or, without one, when every `threads` key (or `eval_threads`
-and the like) among its declared params, inside a declared section too, is 1; one that declares
-none, or another value, runs alone; in the `cpu` profile only the long-term Y-net scoring, the
-semantic maps, the animations and the report do.
+Resources (Dask worker resources decide where and beside what a task runs):
+- `threads`: a worker offers its thread budget. A single-threaded stage asks for 1; any other asks
+  for a worker's whole budget, so it runs alone there. Single-threaded: its dvc.yaml
+  `meta: {threads: 1}` (a data step, which no param gives a thread count), or without one, every
+  `threads` key (or `eval_threads` and the like) among its declared params is 1.
+- `GPU`: a stage asks for one when its declared `runtime.device` param (what its own code hands to
+  `pipeline.device.select_device`) is `cuda`/`cuda:N`, or `auto` while the cluster offers GPUs.
+  The param, not a dvc.yaml flag: the scheduler and the stage then read the same setting, and
+  `auto` keeps meaning "CUDA when available". The worker gives the command its own
+  CUDA_VISIBLE_DEVICES (one GPU per worker, as with dask-cuda or a one-GPU SLURM job); a stage
+  that asked for none gets CUDA_VISIBLE_DEVICES="".
+- `memory_gb`: asked for when dvc.yaml says `meta: {memory_gb: N}`; the local cluster's workers
+  offer the machine's memory shared out among them.
 
-    python tools/parallel_repro.py [--jobs N] [-f] [-s] [targets...]
+The default cluster is a LocalCluster sized to this machine (`local_worker_specs`): without GPUs
+one worker with `--jobs` threads (default: the CPU count), so on 2 cores two single-threaded stages
+run at once and the others alone, as before Dask; with N GPUs (`nvidia-smi -L`, or
+CUDA_VISIBLE_DEVICES when set; torch is not imported here) N worker processes, one GPU each, the
+cores shared out. `--address tcp://host:port` uses a running scheduler instead (dask-jobqueue,
+dask-kubernetes: docs/cluster.md).
+
+Before anything is written the run checks that it can work (`SetupError`, within a minute): the
+scheduler answers and has a worker, every worker sees the project at the same path with the same
+code (git HEAD and a hash of the tracked .py files, `stage_worker.project_fingerprint`), and every
+stage's resources are offered by some worker.
+
+Output: a worker appends its commands' output to `.dvc/tmp/stage-logs/<stage>.log` on the shared
+filesystem and the driver tails it: each line labelled `[stage]`, progress bars thinned. A file
+costs the scheduler nothing, works on any shared mount and keeps what a dead worker printed.
+
+Faults: a task whose worker dies is run again on another one (the scheduler's `allowed-failures`,
+1 on the local cluster; an external scheduler's own setting decides there) and a task that raises
+is retried once (`retries=1`). DVC's part is not repeated, so a retry does not remove outputs; a
+training's checkpoint folder is a `persist: true` output, which `remove_outs` never deletes
+anyway, so the retried training resumes from its `last.pt` (saved every epoch, and mid-epoch on
+SIGTERM). A failed stage starts nothing more; the run ends with 1 once the running stages end, and
+dvc.lock holds exactly the stages that finished. SIGINT / SIGTERM to the driver goes, once, to
+every running command's process group on every worker (`stage_worker.stop_commands`); the run
+ends with 128 + the signal's number.
+
+    python tools/parallel_repro.py [--jobs N] [--address tcp://host:port] [-f] [-s] [targets...]
 """
 
 from __future__ import annotations
@@ -22,16 +54,27 @@ from __future__ import annotations
 import argparse
 import codecs
 import os
+import re
+import shutil
 import signal
 import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+import uuid
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import stage_worker
 
 ALONE, SHARED = "alone", "shared"  # how a stage's command may run: by itself or beside others
 PROGRESS_EVERY_S = 30.0  # how often a concurrent stage's progress bar (lines ended by \r) is echoed
+CONNECT_TIMEOUT_S = 30  # to reach the scheduler, then as long again for a first worker
+LOG_DIR = ".dvc/tmp/stage-logs"  # DVC's tmp: neither git nor DVC track it
+
+
+class SetupError(RuntimeError):
+    """The cluster cannot run this pipeline; raised before anything is written."""
 
 
 def thread_counts(params: Mapping[str, object]) -> list[object]:
@@ -53,13 +96,6 @@ def sharing(params: Mapping[str, object]) -> str:
     return SHARED if counts and all(count == 1 for count in counts) else ALONE
 
 
-def can_start(kind: str, running: Iterable[str], jobs: int) -> bool:
-    """Whether a stage of `kind` may start beside the stages running now (their kinds)."""
-    running = list(running)
-    if not running:
-        return True
-    return kind == SHARED and len(running) < jobs and all(other == SHARED for other in running)
-
 
 def ready(order: list[str], upstream: Mapping[str, set[str]], finished: set[str],
           started: set[str]) -> list[str]:
@@ -67,15 +103,6 @@ def ready(order: list[str], upstream: Mapping[str, set[str]], finished: set[str]
     return [name for name in order
             if name not in started and upstream.get(name, set()) <= finished]
 
-
-@dataclass
-class Running:
-    """A stage's command running as a child process (the stage's name is its key in `running`)."""
-    process: subprocess.Popen
-    started: float
-    echo: threading.Thread
-    commands_left: list[str] = field(default_factory=list)
-    signalled: bool = False  # the stop signal was passed on (once: a second one kills a training)
 
 
 def echo_output(name: str, stream, prefix: bool) -> None:
@@ -105,18 +132,161 @@ def echo_output(name: str, stream, prefix: bool) -> None:
         sys.stdout.flush()
 
 
+
+def stage_resources(kind: str, device: object, memory_gb: object, whole_threads: int,
+                    cluster_has_gpus: bool) -> dict[str, float]:
+    """The Dask resources a stage's task asks for: 1 thread (SHARED) or a worker's whole budget
+    (ALONE); a GPU for a `runtime.device` of cuda / cuda:N, or of auto on a cluster with GPUs;
+    `memory_gb` if declared."""
+    wanted: dict[str, float] = {"threads": 1 if kind == SHARED else whole_threads}
+    device = str(device) if device is not None else "cpu"
+    if device.startswith("cuda") or (device == "auto" and cluster_has_gpus):
+        wanted["GPU"] = 1
+    if memory_gb is not None:
+        wanted["memory_gb"] = float(memory_gb)
+    return wanted
+
+
+def unplaceable(wanted: Mapping[str, Mapping[str, float]],
+                offered: Mapping[str, Mapping[str, float]]) -> list[str]:
+    """The stages (of `wanted`: stage -> resources) no single worker (of `offered`: address ->
+    resources) can take."""
+    return [name for name, resources in wanted.items()
+            if not any(all(offer.get(key, 0) >= amount for key, amount in resources.items())
+                       for offer in offered.values())]
+
+
+def fingerprint_differences(driver: Mapping[str, object], worker: Mapping[str, object],
+                            root: str) -> list[str]:
+    """What a worker's view of the project differs in from the driver's (empty: the same)."""
+    if not worker.get("project"):
+        return [f"no DVC project at {root}"]
+    return [f"{key} {worker.get(key)} (driver: {driver.get(key)})"
+            for key in ("git_head", "python_sha256") if worker.get(key) != driver.get(key)]
+
+
+def visible_gpus(cuda_visible_devices: str | None, nvidia_smi_listing: str) -> list[str]:
+    """The GPU ids this machine offers: CUDA_VISIBLE_DEVICES when set ("" or "-1": none), else
+    the `GPU n:` lines of `nvidia-smi -L`."""
+    if cuda_visible_devices is not None:
+        ids = [item.strip() for item in cuda_visible_devices.split(",") if item.strip()]
+        return [] if ids[:1] == ["-1"] else ids
+    return re.findall(r"^GPU (\d+):", nvidia_smi_listing, flags=re.MULTILINE)
+
+
+def local_worker_specs(cores: int, gpus: list[str], memory_gb: float) -> list[dict]:
+    """Worker options (Nanny's) for a LocalCluster sized to this machine: one worker with every
+    core when there is no GPU; else one per GPU, that GPU its CUDA_VISIBLE_DEVICES, the cores and
+    memory shared out."""
+    count = max(len(gpus), 1)
+    threads = max(cores // count, 1)
+    specs = []
+    for gpu in gpus or [None]:
+        resources = {"threads": threads, "memory_gb": round(memory_gb / count, 1)}
+        spec = {"nthreads": threads, "resources": resources}
+        if gpu is not None:
+            resources["GPU"] = 1
+            spec["env"] = {"CUDA_VISIBLE_DEVICES": gpu}
+        specs.append(spec)
+    return specs
+
+
+def machine_gpus() -> list[str]:
+    """`visible_gpus` of this machine."""
+    listing = ""
+    if "CUDA_VISIBLE_DEVICES" not in os.environ and shutil.which("nvidia-smi"):
+        listing = subprocess.run(["nvidia-smi", "-L"], capture_output=True, text=True).stdout
+    return visible_gpus(os.environ.get("CUDA_VISIBLE_DEVICES"), listing)
+
+
+def start_local_cluster(cores: int, gpus: list[str] | None = None):
+    """The default cluster: `local_worker_specs` of this machine (its `machine_gpus` unless
+    `gpus` says). Without GPUs its one worker runs in this process (its tasks only wait on child
+    processes); GPU workers are processes, each with its CUDA_VISIBLE_DEVICES."""
+    import dask
+    import psutil
+    from distributed import LocalCluster, Nanny, Scheduler, SpecCluster
+
+    gpus = machine_gpus() if gpus is None else gpus
+    specs = local_worker_specs(cores, gpus, psutil.virtual_memory().total / 2**30)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
+        if not gpus:
+            return LocalCluster(n_workers=1, threads_per_worker=specs[0]["nthreads"],
+                                resources=specs[0]["resources"], processes=False,
+                                dashboard_address=None)
+        scheduler = {"cls": Scheduler, "options": {"dashboard_address": None}}
+        workers = {f"gpu{gpu}": {"cls": Nanny, "options": spec} for gpu, spec in zip(gpus, specs)}
+        return SpecCluster(workers=workers, scheduler=scheduler, name="ynet-repro")
+
+
+def connect(address: str, timeout: float):
+    """A client of the scheduler at `address` with at least one worker, or SetupError naming it."""
+    from distributed import Client
+
+    try:
+        client = Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError) as error:
+        raise SetupError(f"cannot reach the Dask scheduler at {address} within {timeout:.0f} s "
+                         f"({type(error).__name__}: {error})") from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except TimeoutError:
+        client.close()
+        raise SetupError(f"the Dask scheduler at {address} has no worker "
+                         f"(none joined within {timeout:.0f} s)") from None
+    return client
+
+
+def check_workers(client, root: str) -> dict[str, dict[str, float]]:
+    """Every worker's resources, once every worker sees the project as the driver does; else
+    SetupError naming each worker and what differs."""
+    driver = stage_worker.project_fingerprint(root)
+    seen = client.run(stage_worker.project_fingerprint, root, on_error="return")
+    problems = []
+    for address, fingerprint in sorted(seen.items()):
+        if isinstance(fingerprint, BaseException):
+            problems.append(f"worker {address}: {type(fingerprint).__name__}: {fingerprint}")
+            continue
+        for difference in fingerprint_differences(driver, fingerprint, root):
+            problems.append(f"worker {address} ({fingerprint.get('host')}): {difference}")
+    if problems:
+        raise SetupError("workers must see this project on a shared filesystem, at the same path, "
+                         "with the same code (docs/cluster.md):\n  " + "\n  ".join(problems))
+    return {address: dict(info.get("resources") or {})
+            for address, info in client.scheduler_info()["workers"].items()}
+
+
+class LogTail:
+    """A stage's log file read as it grows (`read1`, as `echo_output` reads a pipe): returns b""
+    only once `done` is set and everything written has been read."""
+
+    def __init__(self, path: Path, done: threading.Event):
+        self.path, self.done, self.file = path, done, None
+
+    def read1(self, size: int) -> bytes:
+        while True:
+            finished = self.done.is_set()  # before reading: what came before it is then read
+            if self.file is None and self.path.exists():
+                self.file = self.path.open("rb")
+            chunk = self.file.read(size) if self.file is not None else b""
+            if chunk or finished:
+                return chunk
+            time.sleep(0.2)
+
+
 def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_item: bool = False,
                on_stage_done: Callable[[str, float], None] | None = None,
-               root: str = ".") -> tuple[int, dict[str, float]]:
+               root: str = ".", address: str | None = None,
+               connect_timeout: float = CONNECT_TIMEOUT_S) -> tuple[int, dict[str, float]]:
     """Reproduce `targets` (all stages if none) and what they depend on (with `single_item`, the
-    targets alone, as `dvc repro --single-item`); (exit code, wall seconds of each stage that
-    ran). Stops starting stages after the first failure and returns 1 once the running ones end;
-    SIGINT / SIGTERM are passed to the running commands (their trainings save a resumable
-    checkpoint) and end the run with 130 / 143."""
+    targets alone, as `dvc repro --single-item`) on the cluster at `address`, or on a LocalCluster
+    with `jobs` threads; (exit code, wall seconds of each stage that ran: DVC's part plus the
+    command's). `on_stage_done(name, seconds)` follows each lock update. Raises SetupError before
+    anything is written if the cluster cannot run these stages."""
+    import cloudpickle
+    from distributed import Client
     from dvc.repo import Repo, lock_repo
     from dvc.repo.reproduce import collect_stages, plan_repro
-    from dvc.stage.cache import RunCacheNotFoundError
-    from dvc.stage.run import _enforce_cmd_list, _make_cmd, get_executable, prepare_kwargs
 
     repo = Repo(root)
     with lock_repo(repo):
@@ -124,132 +294,205 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         chosen = collect_stages(repo, targets) if targets else None
         planned = chosen if single_item and chosen else plan_repro(graph, chosen)
         stages = {stage.addressing: stage for stage in planned if stage.cmd and not stage.frozen}
-        order = list(stages)
         # dvc's graph has an edge from a stage to each stage that produces one of its deps
         upstream = {name: {dep.addressing for dep in graph.successors(stage)} & set(stages)
                     for name, stage in stages.items()}
-        kinds = {name: sharing(declared_threads(stage)) for name, stage in stages.items()}
-    executable = get_executable()
+        declared = {name: (sharing(declared_threads(stage)), declared_device(stage),
+                           meta_of(stage).get("memory_gb")) for name, stage in stages.items()}
 
-    finished, started, seconds = set(), set(), {}
-    running: dict[str, Running] = {}
-    failed, stop_signal = False, None
+    cloudpickle.register_pickle_by_value(stage_worker)  # workers need not import tools/
+    cluster = start_local_cluster(jobs) if address is None else None
+    try:
+        client = (Client(cluster, set_as_default=False) if cluster is not None
+                  else connect(address, connect_timeout))
+    except BaseException:
+        if cluster is not None:
+            cluster.close()
+        raise
+    try:
+        offered = check_workers(client, repo.root_dir)
+        whole = min(int(offer.get("threads", 1)) for offer in offered.values())
+        has_gpus = any(offer.get("GPU", 0) >= 1 for offer in offered.values())
+        wanted = {name: stage_resources(kind, device, memory, whole, has_gpus)
+                  for name, (kind, device, memory) in declared.items()}
+        missing = unplaceable(wanted, offered)
+        if missing:
+            raise SetupError("no worker offers what these stages need: " + "; ".join(
+                f"stage '{name}' needs {wanted[name]}" for name in missing)
+                + f" (workers offer: {sorted(offered.values(), key=str)})")
+        client.register_plugin(stage_worker.StageCommands(), name=stage_worker.PLUGIN_NAME)
+        prefix = sum(int(offer.get("threads", 1)) for offer in offered.values()) > 1
+        runner = StageRunner(client, repo, stages, wanted, force, prefix, on_stage_done)
+        with client.as_current():  # distributed.wait looks for it there
+            return runner.run(list(stages), upstream)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
-    def on_signal(signum, _frame):
-        # only noted here: the loop passes it on, so a command started while the handler ran
-        # (Popen returned, not yet in `running`) gets it too, and none gets it twice
-        nonlocal stop_signal
-        stop_signal = signum
 
-    def pass_on_stop_signal() -> None:
-        if stop_signal is None:
-            return
-        for child in running.values():
-            if not child.signalled:
-                child.signalled = True
-                # to the command's process group: where /bin/sh is dash (no SHELL set, as in
-                # CI) the shell forks the command instead of exec'ing it, and a signal to the
-                # shell alone would never reach the training
-                try:
-                    os.killpg(child.process.pid, stop_signal)
-                except ProcessLookupError:
-                    pass  # ended already; poll() will say how
+class StageRunner:
+    """One run: DVC's part of each stage here (`prepare`, `commit`), its commands on the cluster
+    (`submit`), and the loop that starts what is ready and collects what finished."""
 
-    previous_handlers = {sig: signal.signal(sig, on_signal)
-                         for sig in (signal.SIGINT, signal.SIGTERM)}
+    def __init__(self, client, repo, stages, wanted, force, prefix, on_stage_done):
+        self.client, self.repo, self.stages, self.wanted = client, repo, stages, wanted
+        self.force, self.prefix, self.on_stage_done = force, prefix, on_stage_done
+        self.log_dir = Path(repo.root_dir) / LOG_DIR
+        self.finished: set[str] = set()
+        self.seconds: dict[str, float] = {}
+        self.running: dict = {}  # future -> (stage name, DVC seconds so far, tail's event, thread)
+        self.stop_signal: int | None = None
 
-    def launch(name: str, command: str, commands_left: list[str], since: float):
-        stage = stages[name]
-        kwargs = prepare_kwargs(stage)
-        print(f"> {command}", flush=True)
-        # its own process group: Ctrl-C reaches it once, passed on to the group by
-        # pass_on_stop_signal (a second signal would stop a training without its checkpoint)
-        process = subprocess.Popen(_make_cmd(executable, command), stdout=subprocess.PIPE,
-                                   stderr=subprocess.STDOUT, start_new_session=True, **kwargs)
-        echo = threading.Thread(target=echo_output, args=(name, process.stdout, jobs > 1),
-                                daemon=True)
-        echo.start()
-        running[name] = Running(process, since, echo, commands_left)
+    def prepare(self, name: str) -> float | None:
+        """DVC's part before the command: None if the stage is done here (unchanged, or restored
+        from the run cache), else DVC's seconds so far (the outputs removed, the deps saved)."""
+        from dvc.repo import lock_repo
+        from dvc.stage.cache import RunCacheNotFoundError
 
-    def start(name: str) -> None:
-        """DVC's part before the command (in this process), then the command itself."""
-        stage = stages[name]
-        with lock_repo(repo):
-            if not force and not stage.changed():
+        stage = self.stages[name]
+        with lock_repo(self.repo):
+            if not self.force and not stage.changed():
                 print(f"Stage '{name}' didn't change, skipping", flush=True)
-                finished.add(name)
-                return
+                self.finished.add(name)
+                return None
             print(f"Running stage '{name}':", flush=True)
             since = time.monotonic()
+            # persist outputs (training checkpoints) are kept: force=False only unprotects them
             stage.remove_outs(ignore_remove=False, force=False)
-            if not force:
+            if not self.force:
                 try:
                     stage.repo.stage_cache.restore(stage)
-                    commit(name, since)
-                    return
                 except RunCacheNotFoundError:
                     stage.save_deps()
-        first, *rest = _enforce_cmd_list(stage.cmd)
-        launch(name, first, rest, since)
+                else:
+                    self.commit(name, time.monotonic() - since)
+                    return None
+        return time.monotonic() - since
 
-    def commit(name: str, since: float) -> None:
-        stage = stages[name]
-        with lock_repo(repo):
+    def commit(self, name: str, seconds: float) -> None:
+        """DVC's part after the command: hash, commit, and the stage's dvc.lock entry."""
+        from dvc.repo import lock_repo
+
+        stage = self.stages[name]
+        since = time.monotonic()
+        with lock_repo(self.repo):
             stage.save()
             stage.commit()
             stage.dump(update_pipeline=False)
-        seconds[name] = time.monotonic() - since
-        finished.add(name)
-        print(f"Updating lock file 'dvc.lock' ({name}: {seconds[name]:.0f} s)", flush=True)
-        if on_stage_done is not None:
-            on_stage_done(name, seconds[name])
+        self.seconds[name] = seconds + time.monotonic() - since
+        self.finished.add(name)
+        print(f"Updating lock file 'dvc.lock' ({name}: {self.seconds[name]:.0f} s)", flush=True)
+        if self.on_stage_done is not None:
+            self.on_stage_done(name, self.seconds[name])
 
-    try:
-        while True:
-            if not failed and stop_signal is None:
-                for name in ready(order, upstream, finished, started):
-                    if not can_start(kinds[name], (kinds[other] for other in running), jobs):
-                        continue  # a later single-threaded stage may still fit beside
-                    started.add(name)
-                    start(name)
-            if not running:
-                if failed or stop_signal is not None or len(finished) == len(order):
-                    break
-                if not ready(order, upstream, finished, started):
-                    break  # nothing left that can start (a failure upstream)
-                continue
-            time.sleep(0.2)
-            pass_on_stop_signal()
-            for name, child in list(running.items()):
-                code = child.process.poll()
-                if code is None:
+    def submit(self, name: str, dvc_seconds: float) -> None:
+        """The stage's commands as one task, with its resources; its log tailed to our stdout."""
+        from dvc.stage.run import _enforce_cmd_list, _make_cmd, get_executable, prepare_kwargs
+
+        stage = self.stages[name]
+        kwargs = prepare_kwargs(stage)
+        env = {key: value for key, value in kwargs["env"].items() if key.startswith("DVC_")}
+        commands = [(line, _make_cmd(get_executable(), line))
+                    for line in _enforce_cmd_list(stage.cmd)]
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        log = self.log_dir / (re.sub(r"[^\w@.-]", "_", name) + ".log")
+        log.write_bytes(b"")
+        future = self.client.submit(
+            stage_worker.run_commands, commands, kwargs["cwd"], env, str(log),
+            "GPU" in self.wanted[name], key=f"stage-{name}-{uuid.uuid4().hex[:8]}",
+            resources=self.wanted[name], retries=1, pure=False)
+        done = threading.Event()
+        echo = threading.Thread(target=echo_output, args=(name, LogTail(log, done), self.prefix),
+                                daemon=True)
+        echo.start()
+        self.running[future] = (name, dvc_seconds, done, echo)
+
+    def start_ready(self, order: list[str], upstream: Mapping[str, set[str]],
+                    started: set[str]) -> None:
+        """Start every stage whose upstream stages have finished (one finished here at once, by
+        the run cache or unchanged, may make more ready)."""
+        while fresh := ready(order, upstream, self.finished, started):
+            for name in fresh:
+                started.add(name)
+                dvc_seconds = self.prepare(name)
+                if dvc_seconds is not None:
+                    self.submit(name, dvc_seconds)
+
+    def collect(self, future) -> bool:
+        """A finished task: lock its stage if every command succeeded; whether it did."""
+        name, dvc_seconds, done, echo = self.running.pop(future)
+        done.set()
+        echo.join()
+        if future.status != "finished":
+            print(f"ERROR: failed to reproduce '{name}': {future.exception()!r}", flush=True)
+            return False
+        result = future.result()
+        if result["code"] != 0:
+            print(f"ERROR: failed to reproduce '{name}': exited with {result['code']}",
+                  flush=True)
+            return False
+        if not result["complete"]:
+            return False  # stopped between two of its commands: unfinished, so not locked
+        self.commit(name, dvc_seconds + result["seconds"])
+        return True
+
+    def run(self, order: list[str], upstream: Mapping[str, set[str]]) -> tuple[int, dict]:
+        from distributed import wait
+
+        def on_signal(signum, _frame):
+            # only noted: the loop passes it on once, from the main thread, not inside a handler
+            if self.stop_signal is None:
+                self.stop_signal = signum
+
+        previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+        started: set[str] = set()
+        failed, passed_on = False, False
+        try:
+            self.start_ready(order, upstream, started)
+            while self.running:
+                if self.stop_signal is not None and not passed_on:
+                    passed_on = True
+                    self.client.run(stage_worker.stop_commands, self.stop_signal,
+                                    on_error="ignore")
+                try:
+                    wait(list(self.running), timeout=0.5, return_when="FIRST_COMPLETED")
+                except TimeoutError:
                     continue
-                child.echo.join()
-                del running[name]
-                if code != 0:
-                    print(f"ERROR: failed to reproduce '{name}': exited with {code}", flush=True)
-                    failed = True
-                elif child.commands_left:
-                    if stop_signal is None:
-                        launch(name, child.commands_left[0], child.commands_left[1:],
-                               child.started)
-                    # stopped between two of its commands: unfinished, so not locked
-                else:
-                    commit(name, child.started)
-    finally:
-        for sig, handler in previous_handlers.items():
-            signal.signal(sig, handler)
-    if stop_signal is not None:
-        return 128 + stop_signal, seconds
-    return (1 if failed else 0), seconds
+                for future in [f for f in self.running if f.done()]:
+                    failed |= not self.collect(future)
+                if not failed and self.stop_signal is None:
+                    self.start_ready(order, upstream, started)
+        finally:
+            for future, (_, _, done, echo) in self.running.items():
+                future.cancel()
+                done.set()
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+        if self.stop_signal is not None:
+            return 128 + self.stop_signal, self.seconds
+        return (1 if failed else 0), self.seconds
+
+
+def meta_of(stage) -> Mapping[str, object]:
+    """A stage's dvc.yaml `meta` (DVC ignores it; here it may say `threads` and `memory_gb`)."""
+    return stage.meta if isinstance(stage.meta, Mapping) else {}
 
 
 def declared_threads(stage) -> dict[str, object]:
     """What `sharing` reads of a stage: its dvc.yaml `meta: {threads: N}` if it has one (what a
-    data step says of itself; DVC ignores `meta`, and a data step may declare another stage's
-    `threads` param to pass it on, as ynet_slot_scoring does), else its declared params."""
-    meta = stage.meta if isinstance(stage.meta, Mapping) else {}
+    data step says of itself; a data step may declare another stage's `threads` param to pass it
+    on, as ynet_slot_scoring does), else its declared params."""
+    meta = meta_of(stage)
     return {"meta.threads": meta["threads"]} if "threads" in meta else params_of(stage)
+
+
+def declared_device(stage) -> object:
+    """The stage's declared `runtime.device` param (None if it declares none: it runs no torch)."""
+    runtime = params_of(stage).get("runtime")
+    if isinstance(runtime, Mapping):
+        return runtime.get("device")
+    return params_of(stage).get("runtime.device")
 
 
 def params_of(stage) -> dict[str, object]:
@@ -270,10 +513,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("-s", "--single-item", action="store_true",
                         help="the targets alone, not what they depend on")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
-                        help="most single-threaded stages at once (default: the CPU count)")
+                        help="the local cluster's threads (default: the CPU count)")
+    parser.add_argument("--address", help="a running Dask scheduler, tcp://host:port "
+                        "(default: a LocalCluster sized to this machine)")
     args = parser.parse_args(argv)
-    code, seconds = run_stages(args.targets, force=args.force, jobs=args.jobs,
-                               single_item=args.single_item)
+    try:
+        code, seconds = run_stages(args.targets, force=args.force, jobs=args.jobs,
+                                   single_item=args.single_item, address=args.address)
+    except SetupError as error:
+        print(f"parallel_repro: {error}", file=sys.stderr)
+        return 2
     print(f"parallel_repro: {len(seconds)} stages, exit {code}")
     return code
 

@@ -12,12 +12,13 @@ more, so its provenance section shows this run's times (the report stage reads t
 run of named stages, only if the report was among them (else `dvc repro report` would run every
 other stale stage, unclocked).
 
-With `--jobs N` (what `make repro` passes: 2) the stages run through tools/parallel_repro.py,
-which runs up to N single-threaded stages at once; each stage is then clocked from its start to
+With `--jobs N` (what `make repro` passes: the CPU count, 2 on our machine) the stages run
+through tools/parallel_repro.py, which runs up to N single-threaded stages at once; each stage is then clocked from its start to
 its lock update as before, so on 2 cores the stages' times sum to more than the run's wall time
-(the record's `seconds`).
+(the record's `seconds`). parallel_repro runs the commands on a Dask cluster: a LocalCluster of
+this machine, or with `--address tcp://host:port` (which implies the parallel run) a running one.
 
-    python tools/timed_repro.py [--jobs N] [dvc repro arguments...]
+    python tools/timed_repro.py [--jobs N] [--address tcp://host:port] [dvc repro arguments...]
 """
 
 from __future__ import annotations
@@ -106,8 +107,19 @@ def split_jobs(args: list[str]) -> tuple[int, list[str]]:
     return jobs, args[:at] + args[at + 2:]
 
 
-def run_parallel(args: list[str], jobs: int, on_stage_done: Callable[[str, float], None]
-                 ) -> tuple[int, dict[str, float]]:
+def split_address(args: list[str]) -> tuple[str | None, list[str]]:
+    """(--address A, the other arguments): ["--address", "tcp://h:8786", "-f"] -> ("tcp://h:8786",
+    ["-f"]); None without it."""
+    if "--address" not in args:
+        return None, list(args)
+    at = args.index("--address")
+    if at + 1 >= len(args):
+        raise SystemExit("timed_repro: --address needs a scheduler address, tcp://host:port")
+    return args[at + 1], args[:at] + args[at + 2:]
+
+
+def run_parallel(args: list[str], jobs: int, on_stage_done: Callable[[str, float], None],
+                 address: str | None = None) -> tuple[int, dict[str, float]]:
     """tools/parallel_repro.py's run of `args`: stage names, -f / --force, -s / --single-item."""
     import parallel_repro
 
@@ -117,13 +129,18 @@ def run_parallel(args: list[str], jobs: int, on_stage_done: Callable[[str, float
         raise SystemExit(f"timed_repro --jobs {jobs}: only stage names, -f and -s, not "
                          f"{' '.join(sorted(flags - known))} (run without --jobs)")
     targets = [arg for arg in args if not arg.startswith("-")]
-    return parallel_repro.run_stages(targets, force=bool(flags & {"-f", "--force"}), jobs=jobs,
-                                     single_item=bool(flags & {"-s", "--single-item"}),
-                                     on_stage_done=on_stage_done)
+    try:
+        return parallel_repro.run_stages(targets, force=bool(flags & {"-f", "--force"}), jobs=jobs,
+                                         single_item=bool(flags & {"-s", "--single-item"}),
+                                         on_stage_done=on_stage_done, address=address)
+    except parallel_repro.SetupError as error:
+        raise SystemExit(f"timed_repro: {error}") from None
 
 
 def main(argv: list[str] | None = None) -> int:
     jobs, args = split_jobs(sys.argv[1:] if argv is None else argv)
+    address, args = split_address(args)
+    parallel = jobs > 1 or address is not None
     started = dt.datetime.now(dt.UTC)
     clock = time.monotonic()
     if not STAGE_TIMES.exists():  # the report stage reads it: a first run needs it in place
@@ -131,8 +148,9 @@ def main(argv: list[str] | None = None) -> int:
     previous = json.loads(STAGE_TIMES.read_text())
     current = current_stages()
 
-    command = " ".join(["dvc", "repro", *args] if jobs == 1
-                       else ["tools/parallel_repro.py", "--jobs", str(jobs), *args])
+    command = " ".join(["tools/parallel_repro.py", "--jobs", str(jobs),
+                        *(["--address", address] if address else []), *args] if parallel
+                       else ["dvc", "repro", *args])
 
     def record(ran: dict[str, float], code: int | None) -> dict[str, float]:
         """Write the times so far; a run stopped before dvc exits keeps exit_code None."""
@@ -144,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
             write_json(merged_times(previous, ran, run, current), STAGE_TIMES)
         return ran
 
-    if jobs == 1:
+    if not parallel:
         code, stamped = run_dvc(["repro", *args], lambda lines: record(stage_seconds(lines), None))
         ran = record(stage_seconds(stamped), code)
     else:
@@ -154,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
             ran_so_far[name] = seconds
             record(ran_so_far, None)
 
-        code, ran = run_parallel(args, jobs, on_stage_done)
+        code, ran = run_parallel(args, jobs, on_stage_done, address)
         record(ran, code)
     if not ran:
         return code

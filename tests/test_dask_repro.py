@@ -1,0 +1,250 @@
+"""tools/parallel_repro.py on a Dask cluster: the same outputs and lock as `dvc repro`, GPU stages
+spread over the GPU workers, a dead worker's stage rerun (a training resuming), the stop signal
+reaching a worker's command, and set-ups that cannot work failing before anything is written.
+
+One module-scoped cluster of two worker processes, each offering 1 thread and a fake GPU
+(CUDA_VISIBLE_DEVICES 0 and 1), built as `make repro` builds its own on a 2-GPU machine; the
+worker-killing test runs last, as it leaves a restarted worker behind."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import psutil
+import pytest
+import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+
+import parallel_repro  # noqa: E402
+import stage_worker  # noqa: E402
+from parallel_repro import SetupError  # noqa: E402
+from tests.test_parallel_repro import clean, make_project  # noqa: E402
+
+PYTHON = sys.executable
+# a fake GPU stage: records which device it was given and when it ran
+GPU_STEP = ("import json, os, sys, time; start = time.time(); time.sleep(1.5); "
+            "json.dump({'cuda': os.environ['CUDA_VISIBLE_DEVICES'], 'start': start, "
+            "'end': time.time()}, open(sys.argv[1], 'w'))")
+# a resumable training: one checkpoint per epoch in a persist output; each attempt noted
+TRAIN = """\
+import json, os, pathlib, time
+checkpoint = pathlib.Path("checkpoints/last.json")
+checkpoint.parent.mkdir(exist_ok=True)
+epoch = json.loads(checkpoint.read_text())["epoch"] if checkpoint.exists() else 0
+with open("attempts.txt", "a") as attempts:
+    attempts.write(f"{os.getpid()} {epoch}\\n")
+for epoch in range(epoch, 6):
+    time.sleep(0.5)
+    checkpoint.write_text(json.dumps({"epoch": epoch + 1}))
+pathlib.Path("model.txt").write_text("trained 6 epochs\\n")
+"""
+
+
+@pytest.fixture(scope="module")
+def gpu_cluster():
+    cluster = parallel_repro.start_local_cluster(2, gpus=["0", "1"])
+    yield cluster
+    cluster.close()
+
+
+@pytest.fixture
+def project(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def write_dvc_yaml(root: Path, stages: dict, params: str = "") -> None:
+    subprocess.run(["dvc", "init", "--no-scm", "-q"], cwd=root, check=True)
+    (root / "params.yaml").write_text(params or "job:\n  threads: 1\n")
+    (root / "dvc.yaml").write_text(yaml.safe_dump({"stages": stages}))
+
+
+def deterministic_stages() -> dict:
+    def write(path: str, text: str) -> str:
+        return f"{PYTHON} -c \"open('{path}', 'w').write('{text}')\""
+    return {"prep": {"cmd": write("prep.txt", "x"), "outs": ["prep.txt"]},
+            "left": {"cmd": write("left.txt", "l"), "deps": ["prep.txt"],
+                     "params": ["job.threads"], "outs": ["left.txt"]},
+            "right": {"cmd": [write("right.txt", "r"), write("right2.txt", "s")],
+                      "deps": ["prep.txt"], "outs": ["right.txt", "right2.txt"]},
+            "join": {"cmd": write("join.txt", "y"), "deps": ["left.txt", "right.txt"],
+                     "outs": ["join.txt"]}}
+
+
+def gpu_stages(count: int) -> dict:
+    return {f"g{i}": {"cmd": f"{PYTHON} -c \"{GPU_STEP}\" g{i}.json", "params": ["runtime.device"],
+                      "outs": [f"g{i}.json"]} for i in range(count)}
+
+
+def when(path: Path, timeout: float = 30) -> str:
+    """The file's text once it exists."""
+    deadline = time.monotonic() + timeout
+    while not path.exists() or not path.read_text():
+        assert time.monotonic() < deadline, f"{path} never appeared"
+        time.sleep(0.1)
+    return path.read_text()
+
+
+# -- pure parts ---------------------------------------------------------------------------------
+
+def test_a_stage_asks_for_a_gpu_when_its_runtime_device_is_cuda_or_auto_with_gpus_around():
+    assert parallel_repro.stage_resources("shared", "cuda", None, 4, False) == {"threads": 1,
+                                                                               "GPU": 1}
+    assert parallel_repro.stage_resources("alone", "cuda:1", None, 4, True)["GPU"] == 1
+    assert "GPU" in parallel_repro.stage_resources("alone", "auto", None, 4, True)
+    assert "GPU" not in parallel_repro.stage_resources("alone", "auto", None, 4, False)
+    assert "GPU" not in parallel_repro.stage_resources("alone", "cpu", None, 4, True)
+    assert "GPU" not in parallel_repro.stage_resources("shared", None, None, 4, True)
+
+
+def test_the_local_cluster_has_one_worker_per_gpu_or_one_with_every_core():
+    assert parallel_repro.local_worker_specs(2, [], 8.0) == [
+        {"nthreads": 2, "resources": {"threads": 2, "memory_gb": 8.0}}]
+    two = parallel_repro.local_worker_specs(16, ["0", "3"], 64.0)
+    assert [spec["env"] for spec in two] == [{"CUDA_VISIBLE_DEVICES": "0"},
+                                              {"CUDA_VISIBLE_DEVICES": "3"}]
+    assert two[1]["resources"] == {"threads": 8, "memory_gb": 32.0, "GPU": 1}
+
+
+def test_gpus_are_counted_from_cuda_visible_devices_else_nvidia_smi():
+    listing = "GPU 0: NVIDIA H100 (UUID: GPU-a)\nGPU 1: NVIDIA H100 (UUID: GPU-b)\n"
+    assert parallel_repro.visible_gpus(None, listing) == ["0", "1"]
+    assert parallel_repro.visible_gpus("2,5", listing) == ["2", "5"]
+    assert parallel_repro.visible_gpus("", listing) == []
+    assert parallel_repro.visible_gpus("-1", listing) == []
+    assert parallel_repro.visible_gpus(None, "") == []
+
+
+def test_a_stage_no_worker_can_take_is_named():
+    offered = {"tcp://a": {"threads": 2}, "tcp://b": {"threads": 1, "GPU": 1}}
+    wanted = {"seg": {"threads": 1, "GPU": 1}, "big": {"threads": 2, "GPU": 1},
+              "data": {"threads": 2}, "huge": {"threads": 1, "memory_gb": 4}}
+    assert parallel_repro.unplaceable(wanted, offered) == ["big", "huge"]
+
+
+def test_a_worker_seeing_other_code_or_no_project_is_told_apart(tmp_path):
+    (tmp_path / "dvc.yaml").write_text("stages: {}\n")
+    (tmp_path / "step.py").write_text("print(1)\n")
+    before = stage_worker.project_fingerprint(str(tmp_path))
+    assert parallel_repro.fingerprint_differences(before, before, "/r") == []
+    (tmp_path / "step.py").write_text("print(2)\n")
+    after = stage_worker.project_fingerprint(str(tmp_path))
+    [difference] = parallel_repro.fingerprint_differences(before, after, "/r")
+    assert difference.startswith("python_sha256")
+    missing = stage_worker.project_fingerprint(str(tmp_path / "nowhere"))
+    assert parallel_repro.fingerprint_differences(before, missing, "/r") == ["no DVC project at /r"]
+
+
+# -- on the cluster -----------------------------------------------------------------------------
+
+def test_the_cluster_writes_the_outputs_and_lock_of_dvc_repro(project, gpu_cluster):
+    serial, dask = project / "serial", project / "dask"
+    for root in (serial, dask):
+        root.mkdir()
+        write_dvc_yaml(root, deterministic_stages())
+    os.chdir(dask)  # (the project fixture's monkeypatch restores the working directory)
+    subprocess.run(["dvc", "repro", "-q"], cwd=serial, check=True)
+    code, seconds = parallel_repro.run_stages([], root=str(dask),
+                                              address=gpu_cluster.scheduler_address)
+    assert code == 0 and set(seconds) == {"prep", "left", "right", "join"}
+    assert (dask / "dvc.lock").read_text() == (serial / "dvc.lock").read_text()
+    assert (dask / "right2.txt").read_text() == "s" and clean(dask)
+
+
+def test_gpu_stages_get_a_gpu_each_and_a_third_waits(project, gpu_cluster, capsys):
+    write_dvc_yaml(project, gpu_stages(3), params="runtime:\n  device: cuda\n")
+    code, _ = parallel_repro.run_stages([], root=str(project),
+                                        address=gpu_cluster.scheduler_address)
+    assert code == 0
+    runs = sorted((json.loads((project / f"g{i}.json").read_text()) for i in range(3)),
+                  key=lambda run: run["start"])
+    first, second, third = runs
+    assert first["start"] < second["end"] and second["start"] < first["end"]  # side by side
+    assert {first["cuda"], second["cuda"]} == {"0", "1"}
+    assert third["start"] >= min(first["end"], second["end"])  # waited for a free GPU
+    assert "[g0] > " in capsys.readouterr().out  # the worker's log reached our stdout, labelled
+
+
+def test_a_gpu_stage_on_a_cpu_only_cluster_fails_before_anything_is_written(project):
+    from distributed import LocalCluster
+
+    write_dvc_yaml(project, {**deterministic_stages(), **gpu_stages(1)},
+                   params="job:\n  threads: 1\nruntime:\n  device: cuda\n")
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, resources={"threads": 1},
+                      dashboard_address=None) as cluster:
+        with pytest.raises(SetupError, match="stage 'g0' needs"):
+            parallel_repro.run_stages([], root=str(project), address=cluster.scheduler_address)
+    assert not (project / "dvc.lock").exists() and not (project / "prep.txt").exists()
+
+
+def test_an_unreachable_scheduler_fails_fast_and_names_its_address(project):
+    write_dvc_yaml(project, deterministic_stages())
+    since = time.monotonic()
+    with pytest.raises(SetupError, match="tcp://127.0.0.1:9"):
+        parallel_repro.run_stages([], root=str(project), address="tcp://127.0.0.1:9",
+                                  connect_timeout=3)
+    assert time.monotonic() - since < 20
+    assert not (project / "dvc.lock").exists()
+
+
+def test_a_failed_stage_ends_the_run_and_only_finished_stages_are_locked(project, gpu_cluster):
+    make_project(project, right="fail")
+    code, seconds = parallel_repro.run_stages([], root=str(project),
+                                              address=gpu_cluster.scheduler_address)
+    assert code == 1 and set(seconds) == {"prep", "left"}
+    assert set(yaml.safe_load((project / "dvc.lock").read_text())["stages"]) == {"prep", "left"}
+    assert not (project / "join.txt").exists()
+
+
+def test_the_stop_signal_reaches_a_command_on_a_worker(project, gpu_cluster):
+    trap = ("import signal, sys, time; "
+            "signal.signal(signal.SIGTERM, lambda *_: (open('got_term', 'w').write('x'), "
+            "sys.exit(143))); open('started', 'w').write('x'); time.sleep(60)")
+    write_dvc_yaml(project, {"wait": {"cmd": f"{PYTHON} -c \"{trap}\"", "outs": ["never.txt"]}})
+    driver = os.getpid()
+    threading.Thread(target=lambda: (when(project / "started"), os.kill(driver, signal.SIGTERM)),
+                     daemon=True).start()
+    since = time.monotonic()
+    code, seconds = parallel_repro.run_stages([], root=str(project),
+                                              address=gpu_cluster.scheduler_address)
+    assert code == 128 + signal.SIGTERM and seconds == {}
+    assert (project / "got_term").exists() and time.monotonic() - since < 30
+    assert not (project / "dvc.lock").exists()  # nothing finished, nothing locked
+
+
+def test_a_worker_killed_mid_training_its_stage_resumes_elsewhere(project, gpu_cluster):
+    """As if the worker's machine died: worker and command get SIGKILL after the first epochs;
+    the task runs again, the checkpoint (a persist output) is still there, the training resumes,
+    and the lock is an uninterrupted run's."""
+    from distributed import Client
+
+    (project / "train.py").write_text(TRAIN)
+    write_dvc_yaml(project, {"train": {
+        "cmd": f"{PYTHON} train.py", "deps": ["train.py"], "params": ["job.threads"],
+        "outs": ["model.txt", {"checkpoints": {"persist": True}}]}})
+    with Client(gpu_cluster, set_as_default=False) as client:
+        worker_pids = set(client.run(os.getpid).values())
+
+    def kill_the_worker_after_two_epochs():
+        pid = int(when(project / "attempts.txt").split()[0])
+        while json.loads(when(project / "checkpoints" / "last.json"))["epoch"] < 2:
+            time.sleep(0.1)
+        [worker] = [p.pid for p in psutil.Process(pid).parents() if p.pid in worker_pids]
+        os.killpg(os.getpgid(pid), signal.SIGKILL)
+        os.kill(worker, signal.SIGKILL)
+
+    killer = threading.Thread(target=kill_the_worker_after_two_epochs, daemon=True)
+    killer.start()
+    code, seconds = parallel_repro.run_stages([], root=str(project),
+                                              address=gpu_cluster.scheduler_address)
+    killer.join(timeout=1)
+    assert code == 0 and set(seconds) == {"train"}
+    attempts = [line.split() for line in (project / "attempts.txt").read_text().splitlines()]
+    assert len(attempts) == 2 and int(attempts[1][1]) >= 2  # the second resumed from epoch >= 2
+    assert (project / "model.txt").read_text() == "trained 6 epochs\n" and clean(project)
