@@ -96,13 +96,11 @@ def sharing(params: Mapping[str, object]) -> str:
     return SHARED if counts and all(count == 1 for count in counts) else ALONE
 
 
-
 def ready(order: list[str], upstream: Mapping[str, set[str]], finished: set[str],
           started: set[str]) -> list[str]:
     """The stages of `order` not started yet whose upstream stages have all finished, in order."""
     return [name for name in order
             if name not in started and upstream.get(name, set()) <= finished]
-
 
 
 def echo_output(name: str, stream, prefix: bool) -> None:
@@ -130,7 +128,6 @@ def echo_output(name: str, stream, prefix: bool) -> None:
     if pending.strip():
         sys.stdout.write(f"[{name}] {pending}\n" if prefix else pending)
         sys.stdout.flush()
-
 
 
 def stage_resources(kind: str, device: object, memory_gb: object, whole_threads: int,
