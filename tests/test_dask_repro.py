@@ -128,6 +128,24 @@ def test_a_stage_no_worker_can_take_is_named():
     assert parallel_repro.unplaceable(wanted, offered) == ["big", "huge"]
 
 
+class FakeClient:
+    def __init__(self, services: dict):
+        self.services = services
+        self.dashboard_link = "http://127.0.0.1:8787/status"
+
+    def scheduler_info(self) -> dict:
+        return {"address": "tcp://127.0.0.1:8786", "services": self.services}
+
+
+def test_the_run_says_where_the_scheduler_and_its_dashboard_are():
+    offered = {"w1": {"threads": 8, "GPU": 1}}
+    with_one = parallel_repro.cluster_line(FakeClient({"dashboard": 8787}), offered)
+    assert "tcp://127.0.0.1:8786" in with_one and "1 worker(s)" in with_one
+    assert with_one.endswith("dashboard: http://127.0.0.1:8787/status")
+    without = parallel_repro.cluster_line(FakeClient({}), offered)
+    assert "dashboard: none" in without and "[cluster]" in without
+
+
 def test_a_worker_seeing_other_code_or_no_project_is_told_apart(tmp_path):
     (tmp_path / "dvc.yaml").write_text("stages: {}\n")
     (tmp_path / "step.py").write_text("print(1)\n")

@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import argparse
 import codecs
+import importlib.util
 import os
 import re
 import shutil
@@ -205,13 +206,15 @@ def start_local_cluster(cores: int, gpus: list[str] | None = None):
     from distributed import LocalCluster, Nanny, Scheduler, SpecCluster
 
     gpus = machine_gpus() if gpus is None else gpus
+    # a free port for the dashboard where bokeh is installed (none is served without it)
+    dashboard = ":0" if importlib.util.find_spec("bokeh") else None
     specs = local_worker_specs(cores, gpus, psutil.virtual_memory().total / 2**30)
     with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
         if not gpus:
             return LocalCluster(n_workers=1, threads_per_worker=specs[0]["nthreads"],
                                 resources=specs[0]["resources"], processes=False,
-                                dashboard_address=None)
-        scheduler = {"cls": Scheduler, "options": {"dashboard_address": None}}
+                                dashboard_address=dashboard)
+        scheduler = {"cls": Scheduler, "options": {"dashboard_address": dashboard}}
         workers = {f"gpu{gpu}": {"cls": Nanny, "options": spec} for gpu, spec in zip(gpus, specs)}
         return SpecCluster(workers=workers, scheduler=scheduler, name="ynet-repro")
 
@@ -251,6 +254,18 @@ def check_workers(client, root: str) -> dict[str, dict[str, float]]:
                          "with the same code (docs/cluster.md):\n  " + "\n  ".join(problems))
     return {address: dict(info.get("resources") or {})
             for address, info in client.scheduler_info()["workers"].items()}
+
+
+def cluster_line(client, offered: Mapping[str, Mapping[str, float]]) -> str:
+    """What the run prints first: the scheduler, its workers' resources and where its dashboard
+    is (the scheduler serves one only where bokeh is installed: the `[cluster]` extra)."""
+    info = client.scheduler_info()
+    port = (info.get("services") or {}).get("dashboard")
+    dashboard = (client.dashboard_link if port else
+                 "none (pip install -c requirements.lock -e '.[cluster]' for one)")
+    workers = ", ".join(str(dict(resources)) for resources in offered.values())
+    return (f"Dask scheduler {info.get('address')}: {len(offered)} worker(s) {workers}; "
+            f"dashboard: {dashboard}")
 
 
 class LogTail:
@@ -308,6 +323,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         raise
     try:
         offered = check_workers(client, repo.root_dir)
+        print(cluster_line(client, offered), flush=True)
         whole = min(int(offer.get("threads", 1)) for offer in offered.values())
         has_gpus = any(offer.get("GPU", 0) >= 1 for offer in offered.values())
         wanted = {name: stage_resources(kind, device, memory, whole, has_gpus)
