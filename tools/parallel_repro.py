@@ -206,8 +206,7 @@ def start_local_cluster(cores: int, gpus: list[str] | None = None):
     from distributed import LocalCluster, Nanny, Scheduler, SpecCluster
 
     gpus = machine_gpus() if gpus is None else gpus
-    # a free port for the dashboard where bokeh is installed (none is served without it)
-    dashboard = ":0" if importlib.util.find_spec("bokeh") else None
+    dashboard = ":0"  # a free port (None would mean 8787, maybe taken); its plots need bokeh
     specs = local_worker_specs(cores, gpus, psutil.virtual_memory().total / 2**30)
     with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
         if not gpus:
@@ -258,11 +257,12 @@ def check_workers(client, root: str) -> dict[str, dict[str, float]]:
 
 def cluster_line(client, offered: Mapping[str, Mapping[str, float]]) -> str:
     """What the run prints first: the scheduler, its workers' resources and where its dashboard
-    is (the scheduler serves one only where bokeh is installed: the `[cluster]` extra)."""
+    is (whose plots need bokeh: the `[cluster]` extra)."""
     info = client.scheduler_info()
     port = (info.get("services") or {}).get("dashboard")
-    dashboard = (client.dashboard_link if port else
-                 "none (pip install -c requirements.lock -e '.[cluster]' for one)")
+    dashboard = client.dashboard_link if port else "none"
+    if port and importlib.util.find_spec("bokeh") is None:
+        dashboard += " (its plots need bokeh: pip install -c requirements.lock -e '.[cluster]')"
     workers = ", ".join(str(dict(resources)) for resources in offered.values())
     return (f"Dask scheduler {info.get('address')}: {len(offered)} worker(s) {workers}; "
             f"dashboard: {dashboard}")
