@@ -55,7 +55,7 @@ def test_sgan_makes_no_tensor_on_the_default_device():
     model = SocialGan(dataclasses.replace(TINY_SGAN, clip_d=1.0), N_PAST, 5, CPU)  # clip_d: both clips run
     opt_g = torch.optim.Adam(model.generator.parameters(), lr=1e-3)
     opt_d = torch.optim.Adam(model.discriminator.parameters(), lr=1e-3)
-    rng = common.seed_everything(0, CPU)
+    rng = checkpoints.seed_everything(0, CPU)
     batch = sgan_module.make_batch(arrays.past, arrays.future, groups, TINY_SGAN.coord_scale, CPU)
     model.train_step(batch, opt_g, opt_d, rng)  # Adam's lazily made `step` tensors, on the CPU
     with torch.device("meta"):
@@ -77,7 +77,7 @@ def test_pecnet_makes_no_tensor_on_the_default_device():
     torch.manual_seed(0)
     model = Pecnet(TINY_PECNET, N_PAST, 5, CPU)
     optimizer = torch.optim.Adam(model.net.parameters(), lr=1e-3)
-    rng = common.seed_everything(0, CPU)
+    rng = checkpoints.seed_everything(0, CPU)
     batch = pecnet_module.make_batch(arrays.past, groups, TINY_PECNET, arrays.future, CPU)
     model.train_step(batch, optimizer, rng)  # Adam's lazily made `step` tensors, on the CPU
     with torch.device("meta"):

@@ -4,6 +4,9 @@
 
 from __future__ import annotations
 
+import json
+
+import numpy as np
 import pytest
 import torch
 
@@ -89,3 +92,53 @@ def test_an_unknown_file_is_an_error_naming_it(tmp_path):
     torch.save({"weights": torch.ones(1)}, tmp_path / "last.pt")
     with pytest.raises(ValueError, match="last.pt.*weights"):
         upgrade_checkpoints.upgrade(tmp_path / "last.pt")
+
+
+def windows(offset: int):
+    """Three fixed windows (ids, scenes, frames, positions); only what `run_digest` reads."""
+    from pipeline.data.window_table import WindowArrays
+    n = 3
+    return WindowArrays(past=(np.arange(n * 8, dtype=float).reshape(n, 4, 2) + offset) * 1.5,
+                        future=(np.arange(n * 4, dtype=float).reshape(n, 2, 2) - offset) * 0.25,
+                        window_id=np.arange(n) + 10 * offset,
+                        scene_id=np.array(["gates_2", "coupa_3", "gates_2"], dtype=object),
+                        track_id=np.arange(n), first_frame=np.arange(n) * 30 + offset,
+                        split=np.array(["train"] * n))
+
+
+MAPS = {"gates_2": np.arange(24, dtype=np.float32).reshape(2, 3, 4),
+        "coupa_3": np.ones((2, 3, 4), np.float32)}
+# What Y-net's run fingerprint hashed ahead of the windows for a cpu-like run, before run_digest
+YNET_HEAD = json.dumps({"n_past": 8, "settings": {
+    "augmentations": 8, "batch_size": 2, "bf16": True, "decoder_channels": [64, 64, 64, 32, 32],
+    "distance_gain": 8.0, "distance_norm": "upstream", "encoder_channels": [32, 32, 64, 64, 64],
+    "head_bias": -15.0, "kernel_size": 31, "learning_rate": 0.0001, "loss_scale": 1000.0,
+    "lr_schedule": "cosine", "resize": 0.0625, "seed": 0, "sigma": 4.0, "waypoints": [14, 29]}},
+    sort_keys=True)
+
+
+def test_run_digest_gives_the_values_of_the_hashes_it_replaced():
+    """Pinned to what the three copies it replaced returned on these inputs (computed with them
+    before they went): the baselines' `common.fingerprint(7, a, b)`, Y-net's `run_fingerprint`,
+    whose settings part is `YNET_HEAD`, and the windows part of inD's run stamp (its maps were
+    hashed without their names, so only a digest without maps is the same)."""
+    a, b = windows(0), windows(1)
+    assert (checkpoints.run_digest("7", a, b)
+            == "f7314d8686d676eed225523aa28005fad9d997aaa7a603c7adbec1cd103671a9")
+    assert (checkpoints.run_digest(YNET_HEAD, a, b, maps=MAPS)
+            == "cab6e219478cdf4cd6e27d52cbcaf061c65b15ef5f4f111d4d4560563652087d")
+    same = checkpoints.run_digest(YNET_HEAD, a, b, maps=MAPS)
+    assert checkpoints.run_digest(YNET_HEAD, a, windows(2), maps=MAPS) != same
+    assert checkpoints.run_digest(YNET_HEAD, a, b, maps={**MAPS, "coupa_3": 0 * MAPS["coupa_3"]}) != same
+    assert checkpoints.run_digest("8", a, b) != checkpoints.run_digest("7", a, b)
+
+
+def test_seed_everything_seeds_the_global_rngs_and_returns_a_seeded_generator():
+    import random
+    generator = checkpoints.seed_everything(5)
+    drawn = (random.random(), np.random.rand(), torch.rand(1).item(),
+             torch.rand(1, generator=generator).item())
+    generator = checkpoints.seed_everything(5)
+    assert drawn == (random.random(), np.random.rand(), torch.rand(1).item(),
+                     torch.rand(1, generator=generator).item())
+    assert drawn[3] == torch.rand(1, generator=torch.Generator().manual_seed(5)).item()

@@ -19,7 +19,6 @@ import hashlib
 import json
 import math
 import pickle
-import random
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -52,12 +51,6 @@ def scale_waypoints(waypoints: list[int], n_future: int, reference_future: int =
     scaled = sorted({int(np.floor((w + 1) * n_future / reference_future + 0.5)) - 1
                      for w in waypoints})
     return [max(0, w) for w in scaled[:-1]] + [n_future - 1]
-
-
-def seed_everything(seed: int) -> None:
-    random.seed(seed)
-    np.random.seed(seed)
-    torch.manual_seed(seed)
 
 
 @torch.inference_mode()
@@ -277,19 +270,12 @@ ADDED_SETTINGS = {"semantic_classes": 6, "steps_per_epoch": 0, "head_bias": None
 
 def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str, np.ndarray],
                     *arrays: WindowArrays) -> str:
-    """SHA-256 of what a training run depends on: settings, windows and scene maps."""
-    digest = hashlib.sha256()
+    """SHA-256 of what a training run depends on: settings, windows and scene maps
+    (`checkpoints.run_digest`)."""
     kept = {k: v for k, v in asdict(settings).items() if k not in RESUMABLE_SETTINGS
             and not (k in ADDED_SETTINGS and v == ADDED_SETTINGS[k])}
-    digest.update(json.dumps({"settings": kept, "n_past": n_past}, sort_keys=True).encode())
-    for a in arrays:
-        for values in (a.window_id, a.first_frame, a.past, a.future):
-            digest.update(np.ascontiguousarray(values).tobytes())
-        digest.update("\x00".join(map(str, a.scene_id)).encode())
-    for scene_id in sorted(semantic_maps):
-        digest.update(scene_id.encode())
-        digest.update(np.ascontiguousarray(semantic_maps[scene_id]).tobytes())
-    return digest.hexdigest()
+    return checkpoints.run_digest(json.dumps({"settings": kept, "n_past": n_past}, sort_keys=True),
+                                  *arrays, maps=semantic_maps)
 
 
 def horizon_start(main_model: Path, settings: YnetSettings, n_past: int,
@@ -343,7 +329,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     """
     torch.set_num_threads(settings.threads)
     torch.set_flush_denormal(True)  # otherwise Adam crawls through denormal numbers on CPU
-    seed_everything(settings.seed)
+    checkpoints.seed_everything(settings.seed)
     total_epochs = epochs or settings.epochs  # the run's length (the lr schedule spans it)
     n_future = train_arrays.future.shape[1]
     model = YNet(settings.model_config(n_past, n_future))  # seeded init on CPU
