@@ -1,6 +1,6 @@
-"""The shared resumable-checkpoint scheme (`pipeline.checkpoints`) and the upgrade of older layouts
-(`tools/upgrade_checkpoints.py`). The loops' own resume-exactly tests live beside each loop
-(test_train_ynet, test_segmentation_device, test_baselines_device)."""
+"""The shared resumable-checkpoint scheme (`pipeline.checkpoints`): resuming, the run digest and the
+seeding. The loops' own resume-exactly tests live beside each loop (test_train_ynet,
+test_segmentation_device, test_baselines_device)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,6 @@ import pytest
 import torch
 
 from pipeline import checkpoints
-from tools import upgrade_checkpoints
 
 IDENTITY = {"lr": 0.001, "data_fingerprint": "abc"}
 
@@ -59,39 +58,6 @@ def test_read_refuses_another_layout(tmp_path):
     torch.save({"format": 2}, tmp_path / "last.pt")
     with pytest.raises(ValueError, match="last.pt"):
         checkpoints.read(tmp_path / "last.pt")
-
-
-def ynet_legacy(losses: list[float] | None) -> dict:
-    """A `last.pt` as `pipeline.runners.ynet_training.train` wrote it before the shared scheme
-    (`losses` None: before mid-epoch checkpoints, without `partial_losses`)."""
-    saved = {"model": {"w": torch.ones(2)}, "optimizer": {"state": {}, "param_groups": []},
-            "rng": {"numpy_plan": {"state": 7}, "torch": torch.zeros(3, dtype=torch.uint8)},
-            "state": {"epoch": 4, "history": [{"epoch": e} for e in range(1, 5)],
-                      "best": {"epoch": 3, "val_ade": 9.5}, "seconds": 12.5},
-            "run_id": "f00d", "partial_losses": losses}
-    return saved if losses is not None else {k: v for k, v in saved.items() if k != "partial_losses"}
-
-
-@pytest.mark.parametrize("losses, position", [(None, None), ([], None),
-                                              ([0.5, 0.25], {"losses": [0.5, 0.25]})])
-def test_a_ynet_checkpoint_of_the_older_layout_is_upgraded(tmp_path, losses, position):
-    path = tmp_path / "last.pt"
-    torch.save(ynet_legacy(losses), path)
-    assert upgrade_checkpoints.upgrade(path, check=True)
-    assert checkpoints.load(path)["run_id"] == "f00d"  # --check rewrites nothing
-    assert upgrade_checkpoints.upgrade(path)
-    resumed = checkpoints.resume(path, {"run": "f00d"}, 5, "test")
-    assert resumed.epoch == 4 and resumed.position == position
-    assert resumed.state["progress"] == {"history": [{"epoch": e} for e in range(1, 5)],
-                                         "best": {"epoch": 3, "val_ade": 9.5}, "seconds": 12.5}
-    assert resumed.state["rng"]["numpy_plan"] == {"state": 7}
-    assert not upgrade_checkpoints.upgrade(path)
-
-
-def test_an_unknown_file_is_an_error_naming_it(tmp_path):
-    torch.save({"weights": torch.ones(1)}, tmp_path / "last.pt")
-    with pytest.raises(ValueError, match="last.pt.*weights"):
-        upgrade_checkpoints.upgrade(tmp_path / "last.pt")
 
 
 def windows(offset: int):
