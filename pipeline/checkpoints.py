@@ -21,16 +21,26 @@ Files are written atomically (`pipeline.io.save_torch`) and hold only tensors an
 loaded with `weights_only=True` onto the CPU (RNG states must be CPU tensors; `load_state_dict`
 moves the rest onto the model's device), so a checkpoint written on a GPU resumes anywhere.
 The kept weights (`best.pt`, a model export) are each loop's own: they are what evaluation loads.
+
+`run_digest` is the one hash of what a run trains on (its settings or seed, its windows, its scene
+maps) that the loops put into their identities, and `seed_everything` the one seeding of Python's,
+numpy's and torch's global RNGs they start with.
 """
 
 from __future__ import annotations
 
+import hashlib
+import random
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
+from pipeline.device import CPU
+from pipeline.device import generator as seeded_generator
 from pipeline.io import save_torch
 
 FORMAT = "resumable/1"
@@ -102,3 +112,28 @@ def save(path: Path, identity: dict[str, Any], epoch: int, state: dict[str, Any]
 def cpu_state_dict(module: torch.nn.Module) -> dict[str, torch.Tensor]:
     """A copy of the module's state_dict as CPU tensors (a GPU run's checkpoint loads anywhere)."""
     return {name: tensor.detach().to("cpu", copy=True) for name, tensor in module.state_dict().items()}
+
+
+def run_digest(head: str, *windows: Any, maps: Mapping[str, np.ndarray] | None = None) -> str:
+    """SHA-256 of what a training run trains on: `head` (its settings or seed, as text), then each
+    window set of `windows` (`pipeline.data.window_table.WindowArrays`: ids, first frames, observed
+    and future positions, scenes) and each scene map of `maps` by name, in name order."""
+    digest = hashlib.sha256(head.encode())
+    for arrays in windows:
+        for values in (arrays.window_id, arrays.first_frame, arrays.past, arrays.future):
+            digest.update(np.ascontiguousarray(values).tobytes())
+        digest.update("\x00".join(map(str, arrays.scene_id)).encode())
+    for name in sorted(maps or {}):
+        digest.update(name.encode())
+        digest.update(np.ascontiguousarray(maps[name]).tobytes())
+    return digest.hexdigest()
+
+
+def seed_everything(seed: int, device: torch.device = CPU) -> torch.Generator:
+    """Seed Python's, numpy's and torch's global RNGs (CPU and CUDA) with `seed`; return a
+    torch.Generator on `device` seeded with `seed`, for a loop that draws its randomness from one
+    (the baselines: shuffling, noise, latents; on the CPU the generator they have always used)."""
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+    return seeded_generator(device, seed)

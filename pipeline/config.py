@@ -595,6 +595,10 @@ AUGMENTATIONS = tuple((turns, flip) for turns in range(4) for flip in (False, Tr
 LR_SCHEDULES = ("constant", "cosine")
 
 
+# Settings Y-net had once, at the only values any profile ran them with (`YnetSettings.from_saved`).
+RETIRED_SETTINGS = {"distance_norm": "upstream", "mix_scenes": False, "weight_average_decay": 0.0}
+
+
 @dataclass
 class YnetSettings:
     """Section `ynet.<profile>` of params.yaml: Y-net's model and training settings."""
@@ -619,10 +623,8 @@ class YnetSettings:
     """Future step indices conditioning the trajectory decoder; the last is the goal."""
     encoder_channels: list[int] = field(default_factory=lambda: [32, 32, 64, 64, 64])
     decoder_channels: list[int] = field(default_factory=lambda: [64, 64, 64, 32, 32])
-    distance_norm: str = "upstream"
-    """'upstream': distance maps divided by the authors' constant; 'map': by each map's own maximum."""
     distance_gain: float = 1.0
-    """Multiplies the 'upstream' distance maps (1 = the authors'). Their slope is tiny (2 / 371 per
+    """Multiplies the distance maps, the authors' divided by their constant (1 = the authors'). Their slope is tiny (2 / 371 per
     pixel at resize 0.125), so the decoders need large weights to turn a distance map into a sharp
     peak; a steeper input reaches those in far fewer steps (see the README's profile table)."""
     seed: int = 0
@@ -642,9 +644,6 @@ class YnetSettings:
     horizons whose futures stay near the agent then cost a fraction of the pixels."""
     crop_lead_steps: float = 0.0
     """The crop is centred this many steps of the agent's last observed velocity ahead of it."""
-    mix_scenes: bool = False
-    """With `crop`: a batch draws its windows from every scene (crops share one size), instead of
-    all from one scene. Larger batches then stay diverse, and no scene leaves a small last batch."""
     bf16: bool = False
     """bfloat16 autocast for the training forward passes on the CPU (about 1.7x on CPUs with
     AVX512-BF16 at batch 16; losses stay float32). CUDA always trains under bfloat16 autocast."""
@@ -655,12 +654,6 @@ class YnetSettings:
     """Multiplies the trajectory decoder's learning rate (schedule included); 1 = one rate for the
     whole model, as the authors. A short-term Y-net on crops learns its paths more slowly than its
     goals (README: its paths lose to straight lines towards the same goals)."""
-    weight_average_decay: float = 0.0
-    """0: validation and the kept best model use the weights as trained (the authors). In (0, 1):
-    they use an exponential moving average of the weights, updated after every optimiser step with
-    this decay (`average_weights`); training itself is unchanged. With batches of 2 at a constant
-    rate the weights wander on a noisy plateau (val ADE jumps by 10 px between epochs); their
-    average sits nearer its middle."""
     grad_clip_norm: float = 0.0
     """0: no clipping (the authors). > 0: before each step the gradients are scaled down so that
     their global L2 norm is at most this (`torch.nn.utils.clip_grad_norm_`): a rare huge batch
@@ -672,27 +665,20 @@ class YnetSettings:
             raise ValueError(f"resize must be in (0, 1], got {self.resize}")
         if not 1 <= self.augmentations <= len(AUGMENTATIONS):
             raise ValueError(f"augmentations must be 1..{len(AUGMENTATIONS)}")
-        if self.distance_norm not in ("upstream", "map"):
-            raise ValueError("distance_norm must be 'upstream' or 'map'")
-        if self.distance_gain <= 0 or (self.distance_norm == "map" and self.distance_gain != 1):
-            raise ValueError("distance_gain must be positive, and 1 with distance_norm 'map'")
+        if self.distance_gain <= 0:
+            raise ValueError("distance_gain must be positive")
         if min(self.epochs, self.batch_size, self.semantic_classes) < 1:
             raise ValueError("epochs, batch_size and semantic_classes must be positive")
         if self.steps_per_epoch < 0:
             raise ValueError("steps_per_epoch must be >= 0 (0 = every batch)")
-        if self.mix_scenes and not self.crop:
-            raise ValueError("mix_scenes needs crop > 0 (whole scenes differ in size)")
         if self.trajectory_lr_scale <= 0:
             raise ValueError(f"trajectory_lr_scale must be positive, got {self.trajectory_lr_scale}")
         if self.grad_clip_norm < 0:
             raise ValueError(f"grad_clip_norm must be >= 0 (0 = off), got {self.grad_clip_norm}")
-        if not 0 <= self.weight_average_decay < 1:
-            raise ValueError(f"weight_average_decay must be in [0, 1), got {self.weight_average_decay}")
         if self.lr_schedule not in LR_SCHEDULES:
             raise ValueError(f"lr_schedule must be one of {LR_SCHEDULES}, got {self.lr_schedule!r}")
-        if self.crop < 0 or self.crop % 32 or (self.crop and self.distance_norm == "map"):
-            raise ValueError(f"crop must be 0 or a multiple of 32, with distance_norm 'upstream' "
-                             f"(crops need distance maps of a fixed scale), got {self.crop}")
+        if self.crop < 0 or self.crop % 32:
+            raise ValueError(f"crop must be 0 or a multiple of 32, got {self.crop}")
 
     def model_config(self, n_past: int, n_future: int) -> YNetConfig:
         return YNetConfig(obs_len=n_past, pred_len=n_future, semantic_classes=self.semantic_classes,
@@ -700,10 +686,19 @@ class YnetSettings:
                           decoder_channels=tuple(self.decoder_channels),
                           waypoints=tuple(self.waypoints), head_bias=self.head_bias)
 
+    @classmethod
+    def from_saved(cls, saved: dict) -> YnetSettings:
+        """The settings a Y-net model file records (`ynet_training.train`). Files written while
+        `distance_norm`, `mix_scenes` and `weight_average_decay` were settings record them too:
+        read at the only values the pipeline ran them with, an error naming them otherwise."""
+        other = {key: saved[key] for key in RETIRED_SETTINGS
+                 if key in saved and saved[key] != RETIRED_SETTINGS[key]}
+        if other:
+            raise ValueError(f"a model trained with settings this code no longer has: {other}")
+        return cls(**{key: value for key, value in saved.items() if key not in RETIRED_SETTINGS})
+
     @property
-    def max_distance(self) -> float | None:
-        if self.distance_norm == "map":
-            return None
+    def max_distance(self) -> float:
         return upstream_max_distance(self.resize) / self.distance_gain
 
 
@@ -1274,17 +1269,12 @@ class YnetTraining:
 
     learning_rate: float | None = None
     batch_size: int | None = None
-    mix_scenes: bool = False
-    """Batches draw windows from every scene (needs the benchmark's `crop`)."""
     bf16: bool = False
     """bfloat16 autocast for the training forward passes on the CPU."""
     lr_schedule: str = "constant"
     """constant | cosine (to 0 over the run)."""
     trajectory_lr_scale: float | None = None
     """Factor on the trajectory decoder's learning rate; null (or absent) = one rate, as the authors."""
-    weight_average_decay: float | None = None
-    """Validate and keep a moving average of the weights with this decay; null (or absent) = the
-    weights as trained, as the authors."""
     grad_clip_norm: float | None = None
     """Clip each step's gradients to this global L2 norm; null (or absent) = no clipping, as the
     authors."""
@@ -1297,9 +1287,6 @@ class YnetTraining:
                              f"{self.trajectory_lr_scale}")
         if self.batch_size is not None and self.batch_size < 1:
             raise ValueError(f"batch_size must be positive or null, got {self.batch_size}")
-        if self.weight_average_decay is not None and not 0 <= self.weight_average_decay < 1:
-            raise ValueError(f"weight_average_decay must be in [0, 1) or null, got "
-                             f"{self.weight_average_decay}")
         if self.grad_clip_norm is not None and self.grad_clip_norm < 0:
             raise ValueError(f"grad_clip_norm must be >= 0 or null, got {self.grad_clip_norm}")
 

@@ -17,7 +17,6 @@ import yaml
 
 from pipeline.stages import train_baseline
 from pipeline import checkpoints
-from tools import upgrade_checkpoints
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines import pecnet as pecnet_module
 from pipeline.harness.baselines import sgan as sgan_module
@@ -55,7 +54,7 @@ def test_sgan_makes_no_tensor_on_the_default_device():
     model = SocialGan(dataclasses.replace(TINY_SGAN, clip_d=1.0), N_PAST, 5, CPU)  # clip_d: both clips run
     opt_g = torch.optim.Adam(model.generator.parameters(), lr=1e-3)
     opt_d = torch.optim.Adam(model.discriminator.parameters(), lr=1e-3)
-    rng = common.seed_everything(0, CPU)
+    rng = checkpoints.seed_everything(0, CPU)
     batch = sgan_module.make_batch(arrays.past, arrays.future, groups, TINY_SGAN.coord_scale, CPU)
     model.train_step(batch, opt_g, opt_d, rng)  # Adam's lazily made `step` tensors, on the CPU
     with torch.device("meta"):
@@ -77,7 +76,7 @@ def test_pecnet_makes_no_tensor_on_the_default_device():
     torch.manual_seed(0)
     model = Pecnet(TINY_PECNET, N_PAST, 5, CPU)
     optimizer = torch.optim.Adam(model.net.parameters(), lr=1e-3)
-    rng = common.seed_everything(0, CPU)
+    rng = checkpoints.seed_everything(0, CPU)
     batch = pecnet_module.make_batch(arrays.past, groups, TINY_PECNET, arrays.future, CPU)
     model.train_step(batch, optimizer, rng)  # Adam's lazily made `step` tensors, on the CPU
     with torch.device("meta"):
@@ -236,12 +235,10 @@ def as_format_2(saved: dict) -> dict:
             "partial": saved["position"]}
 
 
-def test_older_layouts_upgraded_and_other_device_checkpoints_resume(tmp_path, monkeypatch, capsys):
-    """A format-1 / format-2 last.pt (before the shared scheme) is refused as it stands and, once
-    `tools/upgrade_checkpoints` rewrote it, is a run of other selection rules (it predates the
-    per-window validation record): training starts afresh and ends as a straight run. One whose
-    generator state was written on another kind of device carries the weights over with a
-    re-seeded generator."""
+def test_older_layouts_start_afresh_and_other_device_checkpoints_resume(tmp_path, monkeypatch, capsys):
+    """A format-1 / format-2 last.pt (before the shared scheme) is refused: training starts afresh
+    and ends as a straight run. One whose generator state was written on another kind of device
+    carries the weights over with a re-seeded generator."""
     fit = CountingFit(Pecnet, dataclasses.replace(TINY_PECNET, epochs=3), monkeypatch)
     straight = fit(tmp_path / "straight")
     two = CountingFit(Pecnet, dataclasses.replace(TINY_PECNET, epochs=2), monkeypatch)
@@ -253,17 +250,11 @@ def test_older_layouts_upgraded_and_other_device_checkpoints_resume(tmp_path, mo
         last = tmp_path / folder / common.LAST
         original = checkpoints.load(last)
         torch.save(edit(original), last)
-        if folder != "other_device":
-            assert upgrade_checkpoints.upgrade(last)
-            upgraded = checkpoints.load(last)
-            older_identity = {k: v for k, v in original["identity"].items() if k != "selection_rules"}
-            assert upgraded["identity"] == older_identity and upgraded["epoch"] == original["epoch"]
-            assert not upgrade_checkpoints.upgrade(last)  # already in the scheme: left alone
         capsys.readouterr()
         resumed = fit(tmp_path / folder)
         if folder != "other_device":
-            assert fit.steps == 3 * (two.steps // 2)  # afresh: the old run has no per-window curves
-            assert "other selection_rules; starting afresh" in capsys.readouterr().out
+            assert fit.steps == 3 * (two.steps // 2)  # afresh
+            assert "starting afresh" in capsys.readouterr().out
             assert_same_run(straight, resumed)
         else:
             assert fit.steps == two.steps // 2  # one more epoch, not a fresh start

@@ -23,8 +23,8 @@ def test_step_shape_pads_and_turns_the_map():
     assert step_shape([(0, 0, False, rows)], scenes, settings) == (3, 128, 96)
     assert step_shape([(0, 1, True, rows)], scenes, settings) == (3, 96, 128)
     assert step_shape([(0, 2, False, rows[:1])], scenes, settings) == (1, 128, 96)
-    cropped = YnetSettings(crop=64, mix_scenes=True)
-    assert step_shape([(0, 1, False, rows), (0, 0, True, rows[:2])], scenes, cropped) == (5, 64, 64)
+    cropped = YnetSettings(crop=64)
+    assert step_shape([(0, 1, False, rows)], scenes, cropped) == (3, 64, 64)
 
 
 def test_the_warm_up_meets_every_timed_shape_once():

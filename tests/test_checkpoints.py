@@ -1,14 +1,16 @@
-"""The shared resumable-checkpoint scheme (`pipeline.checkpoints`) and the upgrade of older layouts
-(`tools/upgrade_checkpoints.py`). The loops' own resume-exactly tests live beside each loop
-(test_train_ynet, test_segmentation_device, test_baselines_device)."""
+"""The shared resumable-checkpoint scheme (`pipeline.checkpoints`): resuming, the run digest and the
+seeding. The loops' own resume-exactly tests live beside each loop (test_train_ynet,
+test_segmentation_device, test_baselines_device)."""
 
 from __future__ import annotations
 
+import json
+
+import numpy as np
 import pytest
 import torch
 
 from pipeline import checkpoints
-from tools import upgrade_checkpoints
 
 IDENTITY = {"lr": 0.001, "data_fingerprint": "abc"}
 
@@ -58,34 +60,51 @@ def test_read_refuses_another_layout(tmp_path):
         checkpoints.read(tmp_path / "last.pt")
 
 
-def ynet_legacy(losses: list[float] | None) -> dict:
-    """A `last.pt` as `pipeline.runners.ynet_training.train` wrote it before the shared scheme
-    (`losses` None: before mid-epoch checkpoints, without `partial_losses`)."""
-    saved = {"model": {"w": torch.ones(2)}, "optimizer": {"state": {}, "param_groups": []},
-            "rng": {"numpy_plan": {"state": 7}, "torch": torch.zeros(3, dtype=torch.uint8)},
-            "state": {"epoch": 4, "history": [{"epoch": e} for e in range(1, 5)],
-                      "best": {"epoch": 3, "val_ade": 9.5}, "seconds": 12.5},
-            "run_id": "f00d", "partial_losses": losses}
-    return saved if losses is not None else {k: v for k, v in saved.items() if k != "partial_losses"}
+def windows(offset: int):
+    """Three fixed windows (ids, scenes, frames, positions); only what `run_digest` reads."""
+    from pipeline.data.window_table import WindowArrays
+    n = 3
+    return WindowArrays(past=(np.arange(n * 8, dtype=float).reshape(n, 4, 2) + offset) * 1.5,
+                        future=(np.arange(n * 4, dtype=float).reshape(n, 2, 2) - offset) * 0.25,
+                        window_id=np.arange(n) + 10 * offset,
+                        scene_id=np.array(["gates_2", "coupa_3", "gates_2"], dtype=object),
+                        track_id=np.arange(n), first_frame=np.arange(n) * 30 + offset,
+                        split=np.array(["train"] * n))
 
 
-@pytest.mark.parametrize("losses, position", [(None, None), ([], None),
-                                              ([0.5, 0.25], {"losses": [0.5, 0.25]})])
-def test_a_ynet_checkpoint_of_the_older_layout_is_upgraded(tmp_path, losses, position):
-    path = tmp_path / "last.pt"
-    torch.save(ynet_legacy(losses), path)
-    assert upgrade_checkpoints.upgrade(path, check=True)
-    assert checkpoints.load(path)["run_id"] == "f00d"  # --check rewrites nothing
-    assert upgrade_checkpoints.upgrade(path)
-    resumed = checkpoints.resume(path, {"run": "f00d"}, 5, "test")
-    assert resumed.epoch == 4 and resumed.position == position
-    assert resumed.state["progress"] == {"history": [{"epoch": e} for e in range(1, 5)],
-                                         "best": {"epoch": 3, "val_ade": 9.5}, "seconds": 12.5}
-    assert resumed.state["rng"]["numpy_plan"] == {"state": 7}
-    assert not upgrade_checkpoints.upgrade(path)
+MAPS = {"gates_2": np.arange(24, dtype=np.float32).reshape(2, 3, 4),
+        "coupa_3": np.ones((2, 3, 4), np.float32)}
+# What Y-net's run fingerprint hashed ahead of the windows for a cpu-like run, before run_digest
+YNET_HEAD = json.dumps({"n_past": 8, "settings": {
+    "augmentations": 8, "batch_size": 2, "bf16": True, "decoder_channels": [64, 64, 64, 32, 32],
+    "distance_gain": 8.0, "distance_norm": "upstream", "encoder_channels": [32, 32, 64, 64, 64],
+    "head_bias": -15.0, "kernel_size": 31, "learning_rate": 0.0001, "loss_scale": 1000.0,
+    "lr_schedule": "cosine", "resize": 0.0625, "seed": 0, "sigma": 4.0, "waypoints": [14, 29]}},
+    sort_keys=True)
 
 
-def test_an_unknown_file_is_an_error_naming_it(tmp_path):
-    torch.save({"weights": torch.ones(1)}, tmp_path / "last.pt")
-    with pytest.raises(ValueError, match="last.pt.*weights"):
-        upgrade_checkpoints.upgrade(tmp_path / "last.pt")
+def test_run_digest_gives_the_values_of_the_hashes_it_replaced():
+    """Pinned to what the three copies it replaced returned on these inputs (computed with them
+    before they went): the baselines' `common.fingerprint(7, a, b)`, Y-net's `run_fingerprint`,
+    whose settings part is `YNET_HEAD`, and the windows part of inD's run stamp (its maps were
+    hashed without their names, so only a digest without maps is the same)."""
+    a, b = windows(0), windows(1)
+    assert (checkpoints.run_digest("7", a, b)
+            == "f7314d8686d676eed225523aa28005fad9d997aaa7a603c7adbec1cd103671a9")
+    assert (checkpoints.run_digest(YNET_HEAD, a, b, maps=MAPS)
+            == "cab6e219478cdf4cd6e27d52cbcaf061c65b15ef5f4f111d4d4560563652087d")
+    same = checkpoints.run_digest(YNET_HEAD, a, b, maps=MAPS)
+    assert checkpoints.run_digest(YNET_HEAD, a, windows(2), maps=MAPS) != same
+    assert checkpoints.run_digest(YNET_HEAD, a, b, maps={**MAPS, "coupa_3": 0 * MAPS["coupa_3"]}) != same
+    assert checkpoints.run_digest("8", a, b) != checkpoints.run_digest("7", a, b)
+
+
+def test_seed_everything_seeds_the_global_rngs_and_returns_a_seeded_generator():
+    import random
+    generator = checkpoints.seed_everything(5)
+    drawn = (random.random(), np.random.rand(), torch.rand(1).item(),
+             torch.rand(1, generator=generator).item())
+    generator = checkpoints.seed_everything(5)
+    assert drawn == (random.random(), np.random.rand(), torch.rand(1).item(),
+                     torch.rand(1, generator=generator).item())
+    assert drawn[3] == torch.rand(1, generator=torch.Generator().manual_seed(5)).item()

@@ -334,7 +334,7 @@ def tiny_settings(**changes) -> BenchmarkSettings:
         ind=IndBenchmarkParams(ynet_resize=0.33, segmentation_downsample=3, freeze_encoder_epochs=1),
         ynet=YnetSettings(epochs=1, batch_size=2, augmentations=1, kernel_size=7, sigma=1.5,
                           encoder_channels=[4, 4, 8, 8, 8], decoder_channels=[8, 8, 8, 4, 4],
-                          distance_norm="map", threads=1),
+                          threads=1),
         eval=EvalParams(k_e=3, k_a=1, rounds=1, ablation_rounds=1, ka_grid_k_e=[3], ka_grid_k_a=[2],
                         batch_size=2, chunk_size=2),
         ttst=TtstParams(), cws=CwsParams(),

@@ -38,11 +38,11 @@ def scenes(n: int, resize: float):
 
 
 @pytest.fixture(params=[(0, False), (32, False), (32, True)],
-                ids=["whole scene", "crops", "crops of mixed scenes, bf16"])
+                ids=["whole scene", "crops", "crops, bf16"])
 def setup(request):
     torch.manual_seed(0)
     crop, mixed = request.param
-    settings = YnetSettings(**SETTINGS, crop=crop, crop_lead_steps=1.0, mix_scenes=mixed, bf16=mixed,
+    settings = YnetSettings(**SETTINGS, crop=crop, crop_lead_steps=1.0, bf16=mixed,
                             lr_schedule="cosine" if mixed else "constant")
     model = YNet(settings.model_config(N_PAST, N_FUTURE))
     optimizer = torch.optim.Adam(model.parameters(), lr=1e-3)

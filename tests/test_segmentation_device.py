@@ -14,7 +14,6 @@ import torch
 import yaml
 
 import pipeline.runners.segmentation as segmentation
-from tools import upgrade_checkpoints
 from pipeline.stages import segmentation as segmentation_stage
 from pipeline.stages import semantic_maps as semantic_maps_stage
 from pipeline.config import LabelsParams
@@ -177,25 +176,6 @@ def test_stop_before_an_epochs_first_step_resumes_there(tmp_path, monkeypatch):
     assert len(saved["state"]["log"]) == 1 and (position["epoch"], position["step"]) == (1, 0)
     monkeypatch.undo()
     resumed, _ = train(scenes, params, tmp_path / "b.pt", run_id, progress=False)
-    assert_same_weights(straight, resumed)
-
-
-def test_an_older_layout_upgraded_by_the_tool_resumes(tmp_path, capsys):
-    """A format-1 `last.pt` (end of epoch, no RNG states), as the loop wrote it before the shared
-    scheme, is refused as it stands and resumes exactly once `tools/upgrade_checkpoints` rewrote it."""
-    params, scenes, run_id = small_run()
-    straight, log = train(scenes, params, tmp_path / "a.pt", run_id, progress=False)
-    train(scenes, params, tmp_path / "b.pt", run_id, stop_after=1, progress=False)
-    state = checkpoints.load(tmp_path / "b.pt")["state"]
-    save_torch(in_memory=True, path=tmp_path / "b.pt",
-               payload={"format": 1, "fingerprint": run_id, "model": state["model"],
-                        "optimiser": state["optimiser"], "log": state["log"]})
-    assert checkpoints.resume(tmp_path / "b.pt", {"run": run_id}, params.epochs, "test") is None
-    assert "checkpoint format 1" in capsys.readouterr().out
-    assert upgrade_checkpoints.upgrade(tmp_path / "b.pt")
-    resumed, resumed_log = train(scenes, params, tmp_path / "b.pt", run_id)
-    assert "resuming after epoch 1" in capsys.readouterr().out
-    assert [r["loss"] for r in resumed_log] == [r["loss"] for r in log]
     assert_same_weights(straight, resumed)
 
 

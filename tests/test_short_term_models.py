@@ -139,7 +139,7 @@ def tiny_params() -> dict:
     real = read_params(REPO / "params.yaml")
     ynet = {**real["ynet"]["cpu"], "batch_size": 2, "learning_rate": 1e-3, "augmentations": 2,
             "encoder_channels": [4, 4, 8, 8, 8], "decoder_channels": [8, 8, 8, 4, 4], "threads": 1,
-            "distance_norm": "upstream", "distance_gain": 1.0}
+            "distance_gain": 1.0}
     short = {**real["short_term_models"]["cpu"],
              "epochs": {m: {"sdd": 2, "ethucy": 2} for m in ("ynet", "sgan", "pecnet")},
              "ynet_steps_per_epoch": 3, "val_windows": 3, "rounds": 2,
@@ -245,13 +245,13 @@ def test_ynet_training_overrides_the_long_term_models_only_where_set():
         assert settings.trajectory_lr_scale == scale
         assert settings.bf16 == training.bf16 and settings.waypoints == [N_FUTURE - 1]
     for bad in ({"learning_rate": 0.0}, {"batch_size": 0}, {"trajectory_lr_scale": -1.0},
-                {"weight_average_decay": 1.0}, {"grad_clip_norm": -1.0}):
+                {"grad_clip_norm": -1.0}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             YnetTraining(**bad)
     paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})
     for benchmark in ("sdd", "ethucy"):  # the authors' recipe
         assert paper.ynet_training.of(benchmark).overrides() == {
-            "mix_scenes": False, "bf16": False, "lr_schedule": "constant"}
+            "bf16": False, "lr_schedule": "constant"}
 
 
 def test_ynet_training_departs_per_benchmark():
@@ -312,7 +312,7 @@ def test_ynet_resumes_to_the_same_weights(tmp_path):
     settings = YnetSettings(
         resize=0.25, epochs=2, batch_size=2, learning_rate=1e-3, augmentations=1, kernel_size=5,
         sigma=1.0, waypoints=[N_FUTURE - 1], encoder_channels=[4, 4, 8, 8, 8],
-        decoder_channels=[8, 8, 8, 4, 4], distance_norm="map", threads=1, semantic_classes=3,
+        decoder_channels=[8, 8, 8, 4, 4], threads=1, semantic_classes=3,
         steps_per_epoch=2)
     maps = {"zara1": np.full((3, 60, 80), 1 / 3, np.float32)}
     sizes = {"zara1": IMAGE_HW}
@@ -343,7 +343,7 @@ def test_steps_per_epoch_caps_the_optimiser_steps(tmp_path):
     for cap, steps in ((0, 4), (3, 3)):  # 8 windows in batches of 2: 4 steps uncapped
         settings = YnetSettings(resize=0.25, epochs=1, batch_size=2, augmentations=1, kernel_size=5,
                                 sigma=1.0, waypoints=[N_FUTURE - 1], encoder_channels=[4, 4, 8, 8, 8],
-                                decoder_channels=[8, 8, 8, 4, 4], distance_norm="map", threads=1,
+                                decoder_channels=[8, 8, 8, 4, 4], threads=1,
                                 semantic_classes=3, steps_per_epoch=cap)
         folder = tmp_path / str(cap)
         train(train_arrays, val_arrays, maps, sizes, settings, N_PAST, folder / "last.pt",

@@ -1,6 +1,6 @@
-"""How Y-net training batches are drawn and stepped: windows of several scenes mixed in one batch of
-agent crops, the cosine learning-rate schedule, the trajectory decoder's own rate, the moving
-average of the weights, gradient clipping, and bfloat16 autocast on the CPU."""
+"""How Y-net training batches are drawn and stepped: one scene a batch of agent crops, the cosine
+learning-rate schedule, the trajectory decoder's own rate, gradient clipping, and bfloat16 autocast
+on the CPU."""
 
 import math
 
@@ -12,10 +12,9 @@ from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.preemption import NEVER, Preemption, StopRequested
 from pipeline.runners import ynet_training
-from pipeline.runners.ynet_training import (average_weights, epoch_plan, optimizer_groups,
-                                            plan_batch, scheduled_learning_rate, train, train_epoch)
+from pipeline.runners.ynet_training import (epoch_plan, optimizer_groups, scheduled_learning_rate,
+                                            train, train_epoch)
 from pipeline.config import YnetSettings
-from ynet.loss import ynet_loss
 from ynet.model import YNet
 
 N_PAST, N_FUTURE = 3, 4
@@ -42,42 +41,11 @@ def scenes(counts=None):
     return group_by_scene(arrays(counts or {"gates_0": 5, "hyang_1": 7}, "train", 0), MAPS, SIZES, 0.25)
 
 
-def test_a_mixed_plan_visits_every_window_once_per_augmentation_in_full_batches():
+def test_a_plan_has_one_scene_a_batch_and_every_window_once_per_augmentation():
     train_scenes = scenes()
-    settings = YnetSettings(**SETTINGS, mix_scenes=True)
-    plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))
-    seen = {}
-    for batch in plan:
-        assert len({(s, turns, flip) for s, turns, flip, _ in batch}) == len(batch)  # a part per key
-        for s, turns, flip, rows in batch:
-            for row in rows:
-                seen.setdefault((s, int(row)), []).append((turns, flip))
-    assert sorted(seen) == [(0, r) for r in range(5)] + [(1, r) for r in range(7)]
-    assert all(len(set(variants)) == len(variants) == 2 for variants in seen.values())
-    sizes = [sum(len(rows) for *_, rows in batch) for batch in plan]
-    assert sizes == [4] * 6  # 24 windows x augmentations in full batches: no small per-scene tails
-    assert any(len({s for s, *_ in batch}) == 2 for batch in plan)  # scenes do mix
     one_scene = epoch_plan(train_scenes, YnetSettings(**SETTINGS), np.random.default_rng(0))
     assert all(len(batch) == 1 for batch in one_scene)
     assert sorted(sum(len(b[0][3]) for b in one_scene if b[0][0] == s) for s in (0, 1)) == [10, 14]
-
-
-def test_a_mixed_batch_has_the_loss_of_its_parts_one_scene_at_a_time():
-    torch.manual_seed(0)
-    train_scenes = scenes()
-    settings = YnetSettings(**SETTINGS, mix_scenes=True)
-    model = YNet(settings.model_config(N_PAST, N_FUTURE))
-    plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))
-    batch_parts = next(b for b in plan if len({s for s, *_ in b}) == 2)
-
-    def loss(parts):
-        batch = plan_batch(parts, train_scenes, settings, {})
-        return ynet_loss(*model(batch.inputs, batch.waypoint_maps), batch.target).total, len(batch.target)
-
-    mixed, n = loss(batch_parts)
-    alone = [loss([part]) for part in batch_parts]
-    assert n == sum(size for _, size in alone) == 4
-    torch.testing.assert_close(mixed, sum(value * size for value, size in alone) / n)
 
 
 def test_the_cosine_schedule_falls_from_the_rate_to_zero_and_the_constant_one_stays():
@@ -141,11 +109,8 @@ def test_the_trajectory_decoder_steps_at_its_own_rate_and_the_rest_as_before():
     assert any(change.abs().max() > 0 for name, change in single.items() if name in trajectory)
 
 
-@pytest.mark.parametrize("bad, match", [({"mix_scenes": True, "crop": 0}, "mix_scenes"),
-                                        ({"lr_schedule": "linear"}, "lr_schedule"),
+@pytest.mark.parametrize("bad, match", [({"lr_schedule": "linear"}, "lr_schedule"),
                                         ({"trajectory_lr_scale": 0.0}, "trajectory_lr_scale"),
-                                        ({"weight_average_decay": 1.0}, "weight_average_decay"),
-                                        ({"weight_average_decay": -0.1}, "weight_average_decay"),
                                         ({"grad_clip_norm": -1.0}, "grad_clip_norm")])
 def test_settings_that_cannot_work_are_refused(bad, match):
     with pytest.raises(ValueError, match=match):
@@ -160,8 +125,7 @@ def assert_resumes_to_the_uninterrupted_weights(settings: YnetSettings, tmp_path
     def run(folder, preemption=NEVER):
         train(arrays({"gates_0": 5, "hyang_1": 7}, "train", 0), val, MAPS, SIZES, settings, N_PAST,
               folder / "last.pt", folder / "best.pt", folder / "history.csv", preemption=preemption)
-        state = torch.load(folder / "last.pt", weights_only=True)["state"]
-        return {**state["model"], **{f"averaged.{k}": v for k, v in state.get("averaged", {}).items()}}
+        return torch.load(folder / "last.pt", weights_only=True)["state"]["model"]
 
     straight = run(tmp_path / "a")
     steps = []
@@ -178,9 +142,9 @@ def assert_resumes_to_the_uninterrupted_weights(settings: YnetSettings, tmp_path
 
 
 @pytest.mark.usefixtures("cpu_bf16_hardware")
-def test_a_resumed_mixed_cosine_bf16_run_ends_with_the_uninterrupted_weights(tmp_path, monkeypatch):
-    """The schedule and the mixed plan pick up at the step where the run stopped."""
-    settings = YnetSettings(**SETTINGS, mix_scenes=True, lr_schedule="cosine", bf16=True)
+def test_a_resumed_cosine_bf16_run_ends_with_the_uninterrupted_weights(tmp_path, monkeypatch):
+    """The schedule and the plan pick up at the step where the run stopped."""
+    settings = YnetSettings(**SETTINGS, lr_schedule="cosine", bf16=True)
     assert_resumes_to_the_uninterrupted_weights(settings, tmp_path, monkeypatch)
 
 
@@ -189,58 +153,6 @@ def test_a_resumed_run_keeps_the_trajectory_decoders_own_rate(tmp_path, monkeypa
     assert_resumes_to_the_uninterrupted_weights(settings, tmp_path, monkeypatch)
 
 
-def test_the_moving_average_follows_every_step_and_leaves_training_alone():
-    decay = 0.6
-    settings = YnetSettings(**SETTINGS, weight_average_decay=decay)
-    train_scenes = scenes()
-    plan = epoch_plan(train_scenes, settings, np.random.default_rng(0))[:3]
-    trained = {}
-    for averaging in (False, True):
-        torch.manual_seed(0)
-        model = YNet(settings.model_config(N_PAST, N_FUTURE))
-        optimizer = torch.optim.Adam(model.parameters(), lr=settings.learning_rate)
-        averaged = average_weights(model, decay) if averaging else None
-        expected, losses = None, []
-        for step in range(1, len(plan) + 1):  # one step a call: the weights after each
-            train_epoch(model, optimizer, train_scenes, settings, plan[:step], 1, losses,
-                        averaged=averaged)
-            weights = {n: p.detach().clone() for n, p in model.named_parameters()}
-            expected = weights if expected is None else {
-                n: decay * expected[n] + (1 - decay) * weights[n] for n in weights}
-        trained[averaging] = weights
-    for name, value in averaged.module.named_parameters():
-        torch.testing.assert_close(value, expected[name])
-    assert any((expected[n] - trained[True][n]).abs().max() > 0 for n in expected)  # it averages
-    for name in trained[False]:  # the optimiser's path is the same with or without the average
-        torch.testing.assert_close(trained[True][name], trained[False][name], rtol=0, atol=0)
-
-
-def test_a_resumed_run_keeps_the_moving_average(tmp_path, monkeypatch):
-    settings = YnetSettings(**SETTINGS, weight_average_decay=0.5)
-    assert_resumes_to_the_uninterrupted_weights(settings, tmp_path, monkeypatch)
-
-
-def test_validation_scores_the_average_and_best_pt_keeps_it(tmp_path, monkeypatch):
-    settings = YnetSettings(**SETTINGS, weight_average_decay=0.5)
-    scored = []
-
-    def validate(model, scenes, settings):  # every epoch better than the last: best.pt is the last
-        scored.append({name: value.detach().clone() for name, value in model.state_dict().items()})
-        return {"val_ade": 10.0 - len(scored), "val_fde": 1.0}
-
-    monkeypatch.setattr(ynet_training, "validate", validate)
-    torch.set_num_threads(1)
-    train(arrays({"gates_0": 5, "hyang_1": 7}, "train", 0), arrays({"gates_0": 2}, "val", 1), MAPS,
-          SIZES, settings, N_PAST, tmp_path / "last.pt", tmp_path / "best.pt", tmp_path / "history.csv")
-    state = torch.load(tmp_path / "last.pt", weights_only=True)["state"]
-    best = torch.load(tmp_path / "best.pt", weights_only=True)["model"]
-    average = {name.removeprefix("module."): value for name, value in state["averaged"].items()
-               if name.startswith("module.")}
-    assert len(scored) == settings.epochs and set(best) == set(average) == set(scored[-1])
-    for name, value in best.items():
-        torch.testing.assert_close(value, average[name], rtol=0, atol=0)
-        torch.testing.assert_close(value, scored[-1][name], rtol=0, atol=0)
-    assert any((best[n] - state["model"][n]).abs().max() > 0 for n in best)  # not the raw weights
 
 
 def test_clipping_bounds_the_gradient_norm_each_step_takes():

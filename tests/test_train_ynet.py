@@ -41,7 +41,7 @@ def arrays(n: int, split: str, seed: int) -> WindowArrays:
 
 SETTINGS = dict(resize=0.25, epochs=2, batch_size=2, learning_rate=1e-3, augmentations=2,
                 kernel_size=7, sigma=1.5, waypoints=[1, 3], encoder_channels=[4, 4, 8, 8, 8],
-                decoder_channels=[8, 8, 8, 4, 4], distance_norm="map", seed=3, threads=1)
+                decoder_channels=[8, 8, 8, 4, 4], seed=3, threads=1)
 MAPS = {"gates_0": np.full((6, 64, 64), 1 / 6, np.float32)}
 SIZES = {"gates_0": (256, 256)}
 
@@ -278,21 +278,23 @@ def test_waypoints_scale_with_the_horizon(n_future, expected):
     assert scale_waypoints([14, 29], n_future) == expected
 
 
-def test_distance_gain_steepens_the_upstream_maps_and_defaults_keep_old_fingerprints():
+def test_distance_gain_steepens_the_maps_and_every_setting_but_epochs_and_threads_is_identity():
     plain = YnetSettings(resize=0.0625)
     steep = YnetSettings(resize=0.0625, distance_gain=8.0)
     assert plain.max_distance == pytest.approx(upstream_max_distance(0.0625))
     assert steep.max_distance == pytest.approx(plain.max_distance / 8)
     with pytest.raises(ValueError, match="distance_gain"):
-        YnetSettings(distance_norm="map", distance_gain=2.0)
-    with pytest.raises(ValueError, match="distance_gain"):
         YnetSettings(distance_gain=0.0)
     train_arrays = arrays(2, "train", 0)
-    # a setting at its default is left out of the fingerprint, so older checkpoints still resume
-    explicit = YnetSettings(**SETTINGS, distance_gain=1.0, head_bias=None)
-    assert (run_fingerprint(explicit, N_PAST, MAPS, train_arrays)
-            == run_fingerprint(YnetSettings(**SETTINGS), N_PAST, MAPS, train_arrays))
-    other = YnetSettings(**{**SETTINGS, "distance_norm": "upstream"}, distance_gain=8.0)
-    upstream = YnetSettings(**{**SETTINGS, "distance_norm": "upstream"})
-    assert (run_fingerprint(other, N_PAST, MAPS, train_arrays)
-            != run_fingerprint(upstream, N_PAST, MAPS, train_arrays))
+    base = run_fingerprint(YnetSettings(**SETTINGS), N_PAST, MAPS, train_arrays)
+    assert run_fingerprint(YnetSettings(**SETTINGS, distance_gain=8.0), N_PAST, MAPS, train_arrays) != base
+    assert run_fingerprint(YnetSettings(**{**SETTINGS, "epochs": 9, "threads": 2}), N_PAST, MAPS,
+                           train_arrays) == base
+
+
+def test_a_model_file_of_the_retired_settings_reads_at_their_only_values():
+    saved = {**dataclasses.asdict(YnetSettings(**SETTINGS)), "distance_norm": "upstream",
+             "mix_scenes": False, "weight_average_decay": 0.0}
+    assert YnetSettings.from_saved(saved) == YnetSettings(**SETTINGS)
+    with pytest.raises(ValueError, match="distance_norm"):
+        YnetSettings.from_saved({**saved, "distance_norm": "map"})

@@ -29,8 +29,8 @@ from ynet.segmentation import PAD_CLASS
 VARIANTS = {
     "whole scenes": dict(crop=0),
     "crops": dict(),
-    "mixed crops, cosine, clipped, own trajectory rate": dict(
-        mix_scenes=True, lr_schedule="cosine", grad_clip_norm=5.0, trajectory_lr_scale=3.0),
+    "crops, cosine, clipped, own trajectory rate": dict(
+        lr_schedule="cosine", grad_clip_norm=5.0, trajectory_lr_scale=3.0),
 }
 
 
@@ -145,8 +145,7 @@ def reference_batch(parts, train_scenes, settings, augmented):
 
 
 def reference_train_epoch(model, optimizer, train_scenes, settings, plan, epoch, losses,
-                          device=None, preemption=None, save_partial=None, epochs=None,
-                          averaged=None):
+                          device=None, preemption=None, save_partial=None, epochs=None):
     model.train()
     epochs = epochs or settings.epochs
     augmented = {}

@@ -80,8 +80,8 @@ def run_identity(config, seed: int, arrays) -> dict:
     """What `common.run_training` requires a `last.pt` to match before it continues it (the config
     up to `epochs`, the data and seed, the selection rules): as that function builds it."""
     return {**{k: v for k, v in dataclasses.asdict(config).items() if k not in common.RESUMABLE_CHANGES},
-            "data_fingerprint": common.fingerprint(seed, select_split(arrays, "train"),
-                                                   select_split(arrays, "val")),
+            "data_fingerprint": checkpoints.run_digest(str(seed), select_split(arrays, "train"),
+                                                       select_split(arrays, "val")),
             "selection_rules": dict(epoch_selection.RULES)}
 
 

@@ -6,7 +6,6 @@ the stages' times. Where the paper's numbers came from is `pipeline.report.prove
 
 from __future__ import annotations
 
-import hashlib
 import importlib.metadata
 import json
 import os
@@ -21,6 +20,7 @@ from typing import Any
 
 import yaml
 
+from pipeline.data.checksums import sha256_file
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 from pipeline.report.common import video_sort_key
 from pipeline.report.lookups import Absent, MetricsStore, is_number
@@ -109,14 +109,6 @@ def package_version(name: str) -> str:
         return importlib.metadata.version(name)
     except importlib.metadata.PackageNotFoundError:
         return "not installed"
-
-
-def sha256_file(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def manifest_checksums(folder: Path) -> list[dict[str, Any]]:

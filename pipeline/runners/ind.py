@@ -24,16 +24,13 @@ Every round of each model's test predictions (Y-net: the main setting's paths an
 stored in pixels of the recording's background, one file per model (`write_predictions`; window
 ids of the t_f = 30 s table), or, inD not provided, an empty file per model giving the reason.
 Checkpoints (`--checkpoint-dir`): ynet/, sgan_tf30/, pecnet_tf30/ and pecnet_tf5/ survive an
-interruption and resume, while a changed run (other windows, maps or settings) starts afresh;
-segmentation/model.pt is the fine-tuned U-Net (short; re-trained on every run, seeded).
+interruption and resume (`pipeline.checkpoints`), while a changed run (other windows, maps or
+settings) starts afresh; segmentation/model.pt is the fine-tuned U-Net (short; re-trained on every run, seeded).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
-import shutil
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -279,37 +276,14 @@ def semantic_maps(ind_dir: Path, index: dict, segmentation_model: Path, settings
 # Y-net and baselines
 
 
-def array_digest(digest, arrays: WindowArrays) -> None:
-    for values in (arrays.window_id, arrays.first_frame, arrays.past, arrays.future):
-        digest.update(np.ascontiguousarray(values).tobytes())
-    digest.update("\0".join(arrays.scene_id.astype(str)).encode())
-
-
-def fresh_or_resumable(folder: Path, key: str) -> None:
-    """Keep `folder` (a checkpoint directory) only if it was written for run `key`; else empty it.
-
-    Y-net's `train` resumes from any last.pt it finds, so a run on other windows, maps or settings
-    must not find one (more epochs, or other threads, may resume).
-    """
-    stamp = folder / "run.txt"
-    if folder.exists() and (not stamp.is_file() or stamp.read_text() != key):
-        shutil.rmtree(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    stamp.write_text(key)
-
-
 def train_ynet(splits: dict[str, WindowArrays], maps: dict[str, np.ndarray],
                sizes: dict[str, tuple[int, int]], settings: IndTrainSettings, n_past: int,
                folder: Path, device: torch.device = CPU, preemption: Preemption = NEVER) -> dict:
-    """Train Y-net (val selects the epoch) in `folder`; returns the training summary."""
+    """Train Y-net (val selects the epoch) in `folder`; returns the training summary. A `last.pt`
+    there resumes only if written for the same windows, maps and settings (its identity,
+    `pipeline.checkpoints`), as for every Y-net training."""
     ynet_settings = replace(settings.ynet, resize=settings.ind.ynet_resize)
-    kept = {k: v for k, v in dataclasses.asdict(ynet_settings).items() if k not in ("epochs", "threads")}
-    digest = hashlib.sha256(json.dumps([kept, n_past], sort_keys=True).encode())
-    for split in ("train", "val"):
-        array_digest(digest, splits[split])
-    for name in sorted(maps):
-        digest.update(maps[name].tobytes())
-    fresh_or_resumable(folder, digest.hexdigest())
+    folder.mkdir(parents=True, exist_ok=True)
     return train(splits["train"], splits["val"], maps, sizes, ynet_settings, n_past,
                  folder / "last.pt", folder / "best.pt", folder / "history.csv", device=device,
                  preemption=preemption)

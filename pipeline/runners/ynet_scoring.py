@@ -69,7 +69,7 @@ def load_model(path: Path, device: torch.device = CPU) -> tuple[YNet, YnetSettin
     model = YNet(config)
     model.load_state_dict(saved["model"])
     model.eval()
-    return conv_layout(model, device), YnetSettings(**saved["settings"])
+    return conv_layout(model, device), YnetSettings.from_saved(saved["settings"])
 
 
 def load_for_scoring(path: Path, test: WindowArrays, semantic_maps: dict[str, np.ndarray],

@@ -2,9 +2,8 @@
 `train_ynet_horizon`, `train_short_term_ynet`, `train_ind`).
 
 Each epoch visits every train scene under `augmentations` of the 8 rotation/flip variants (drawn at
-random per scene and epoch, seeded), its windows in shuffled batches: one scene per batch, or, on
-equal-sized agent crops, windows of all scenes mixed (`mix_scenes`). The learning rate is constant
-or follows a cosine over the run (`lr_schedule`). After every epoch: validation ADE/FDE
+random per scene and epoch, seeded), its windows in shuffled batches of one scene each. The
+learning rate is constant or follows a cosine over the run (`lr_schedule`). After every epoch: validation ADE/FDE
 (deterministic: softargmax goal and waypoints, one path; model selection never sees the test set),
 a checkpoint (weights, optimiser, RNG states, history) written atomically, and the best weights
 kept. Re-running after an interruption resumes from the last checkpoint; on SIGTERM / SIGINT or
@@ -19,7 +18,6 @@ import hashlib
 import json
 import math
 import pickle
-import random
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -52,12 +50,6 @@ def scale_waypoints(waypoints: list[int], n_future: int, reference_future: int =
     scaled = sorted({int(np.floor((w + 1) * n_future / reference_future + 0.5)) - 1
                      for w in waypoints})
     return [max(0, w) for w in scaled[:-1]] + [n_future - 1]
-
-
-def seed_everything(seed: int) -> None:
-    random.seed(seed)
-    np.random.seed(seed)
-    torch.manual_seed(seed)
 
 
 @torch.inference_mode()
@@ -102,10 +94,7 @@ Rows are numpy in a plan as drawn, tensors on the device once `plan_on_device` h
 
 def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
                rng: np.random.Generator) -> list[list[BatchPart]]:
-    """Every batch of one epoch, shuffled: one part per batch (one scene), or with
-    `settings.mix_scenes` the parts of the scenes its windows come from."""
-    if settings.mix_scenes:
-        return mixed_epoch_plan(scenes, settings, rng)
+    """Every batch of one epoch, shuffled: one part per batch (one scene)."""
     plan = []
     for s, scene in enumerate(scenes):
         variants = rng.choice(len(AUGMENTATIONS), settings.augmentations, replace=False)
@@ -115,29 +104,6 @@ def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
             for start in range(0, len(order), settings.batch_size):
                 plan.append([(s, turns, flip, order[start:start + settings.batch_size])])
     return [plan[i] for i in rng.permutation(len(plan))]
-
-
-def mixed_epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
-                     rng: np.random.Generator) -> list[list[BatchPart]]:
-    """Each scene's windows under `augmentations` variants, all shuffled together and cut into
-    batches of `batch_size`; a batch is split into parts by (scene, variant), in first-seen order."""
-    items = []  # (scene, variant, row)
-    for s, scene in enumerate(scenes):
-        for variant in rng.choice(len(AUGMENTATIONS), settings.augmentations, replace=False):
-            items.append(np.stack([np.full(len(scene), s), np.full(len(scene), variant),
-                                   np.arange(len(scene))], axis=1))
-    items = np.concatenate(items)[rng.permutation(sum(len(i) for i in items))]  # (N, 3)
-    plan = []
-    for start in range(0, len(items), settings.batch_size):
-        batch = items[start:start + settings.batch_size]
-        keys, first = np.unique(batch[:, :2], axis=0, return_index=True)
-        parts = []
-        for s, variant in keys[np.argsort(first)]:
-            turns, flip = AUGMENTATIONS[variant]
-            rows = batch[(batch[:, 0] == s) & (batch[:, 1] == variant), 2]
-            parts.append((int(s), turns, flip, rows))
-        plan.append(parts)
-    return plan
 
 
 def plan_on_device(plan: list[list[BatchPart]], device: torch.device) -> list[list[BatchPart]]:
@@ -170,13 +136,6 @@ def optimizer_groups(model: YNet, settings: YnetSettings) -> list[dict]:
     return [{"params": [p for p in model.parameters() if id(p) not in trajectory], "lr_scale": 1.0},
             {"params": list(model.trajectory_decoder.parameters()),
              "lr_scale": settings.trajectory_lr_scale}]
-
-
-def average_weights(model: YNet, decay: float) -> torch.optim.swa_utils.AveragedModel:
-    """An exponential moving average of `model`'s weights (and buffers): after step t,
-    average = decay * average + (1 - decay) * weights; the first update copies the weights."""
-    return torch.optim.swa_utils.AveragedModel(
-        model, multi_avg_fn=torch.optim.swa_utils.get_ema_multi_avg_fn(decay), use_buffers=True)
 
 
 def concat_batches(batches: list[TrainingBatch]) -> TrainingBatch:
@@ -214,8 +173,7 @@ def plan_batch(parts: list[BatchPart], scenes: list[SceneWindows], settings: Yne
 def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: YnetSettings,
                 plan: list[list[BatchPart]], epoch: int, losses: list[float],
                 device: torch.device = CPU, preemption: Preemption = NEVER,
-                save_partial=None, epochs: int | None = None,
-                averaged: torch.optim.swa_utils.AveragedModel | None = None) -> float:
+                save_partial=None, epochs: int | None = None) -> float:
     """One epoch's optimiser steps, from step `len(losses)` of `plan` on; returns the mean loss.
 
     `losses` holds the steps already taken (a resumed epoch) and grows in place: each step's loss
@@ -223,7 +181,7 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
     step would make the host wait for the GPU at every step). Before each step the loop asks
     `preemption`; if it says stop, `save_partial(losses)` checkpoints the epoch so far and
     `StopRequested` is raised. `epochs`: the run's length, for the learning-rate schedule (default
-    `settings.epochs`). `averaged` (`average_weights`) follows every step.
+    `settings.epochs`).
     """
     model.train()
     if settings.steps_per_epoch:
@@ -260,36 +218,20 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
         if settings.grad_clip_norm:
             torch.nn.utils.clip_grad_norm_(model.parameters(), settings.grad_clip_norm)
         optimizer.step()
-        if averaged is not None:
-            averaged.update_parameters(model)
         unread.append(loss.detach())
     return float(np.mean(read_losses()))
 
 
 RESUMABLE_SETTINGS = ("epochs", "threads")  # may change between an interrupted run and its resumption
-# Settings added after checkpoints existed: left out of the fingerprint at their defaults, so those
-# checkpoints still resume.
-ADDED_SETTINGS = {"semantic_classes": 6, "steps_per_epoch": 0, "head_bias": None,
-                  "distance_gain": 1.0, "crop": 0, "crop_lead_steps": 0.0, "mix_scenes": False,
-                  "bf16": False, "lr_schedule": "constant", "trajectory_lr_scale": 1.0,
-                  "weight_average_decay": 0.0, "grad_clip_norm": 0.0}
 
 
 def run_fingerprint(settings: YnetSettings, n_past: int, semantic_maps: dict[str, np.ndarray],
                     *arrays: WindowArrays) -> str:
-    """SHA-256 of what a training run depends on: settings, windows and scene maps."""
-    digest = hashlib.sha256()
-    kept = {k: v for k, v in asdict(settings).items() if k not in RESUMABLE_SETTINGS
-            and not (k in ADDED_SETTINGS and v == ADDED_SETTINGS[k])}
-    digest.update(json.dumps({"settings": kept, "n_past": n_past}, sort_keys=True).encode())
-    for a in arrays:
-        for values in (a.window_id, a.first_frame, a.past, a.future):
-            digest.update(np.ascontiguousarray(values).tobytes())
-        digest.update("\x00".join(map(str, a.scene_id)).encode())
-    for scene_id in sorted(semantic_maps):
-        digest.update(scene_id.encode())
-        digest.update(np.ascontiguousarray(semantic_maps[scene_id]).tobytes())
-    return digest.hexdigest()
+    """SHA-256 of what a training run depends on: settings, windows and scene maps
+    (`checkpoints.run_digest`)."""
+    kept = {k: v for k, v in asdict(settings).items() if k not in RESUMABLE_SETTINGS}
+    return checkpoints.run_digest(json.dumps({"settings": kept, "n_past": n_past}, sort_keys=True),
+                                  *arrays, maps=semantic_maps)
 
 
 def horizon_start(main_model: Path, settings: YnetSettings, n_past: int,
@@ -337,13 +279,12 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     `initial_weights` (a state dict of this model's shapes) replace the seeded random init: a
     horizon model starting from the main one (`ynet.model.weights_for_horizon`).
     Checkpoint (`pipeline.checkpoints`; identity: `run_fingerprint`, and the initial weights'
-    digest if given) = weights, optimiser, the averaged weights (`weight_average_decay`), the plan
-    RNG's state at the start of the next epoch (or of the current one, with the position's
+    digest if given) = weights, optimiser, the plan RNG's state at the start of the next epoch (or of the current one, with the position's
     `losses` of the steps already taken in it), torch's RNG, history.
     """
     torch.set_num_threads(settings.threads)
     torch.set_flush_denormal(True)  # otherwise Adam crawls through denormal numbers on CPU
-    seed_everything(settings.seed)
+    checkpoints.seed_everything(settings.seed)
     total_epochs = epochs or settings.epochs  # the run's length (the lr schedule spans it)
     n_future = train_arrays.future.shape[1]
     model = YNet(settings.model_config(n_past, n_future))  # seeded init on CPU
@@ -351,8 +292,6 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
         model.load_state_dict(initial_weights)
     model = conv_layout(model, device)
     optimizer = torch.optim.Adam(optimizer_groups(model, settings), lr=settings.learning_rate)
-    averaged = average_weights(model, settings.weight_average_decay) if settings.weight_average_decay else None
-    evaluated = model if averaged is None else averaged.module  # what validation scores and best.pt keeps
     rng = np.random.default_rng(settings.seed)
     train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize, device)
     val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize, device)
@@ -367,8 +306,6 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     if resumed is not None:
         model.load_state_dict(resumed.state["model"])
         optimizer.load_state_dict(resumed.state["optimizer"])
-        if averaged is not None:
-            averaged.load_state_dict(resumed.state["averaged"])
         rng.bit_generator.state = resumed.state["rng"]["numpy_plan"]
         restore_rng_states(resumed.state["rng"], device)
         state = {"epoch": resumed.epoch, **resumed.state["progress"]}
@@ -384,8 +321,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
         checkpoints.save(checkpoint, identity, state["epoch"],
                          {"model": model.state_dict(), "optimizer": optimizer.state_dict(),
                           "rng": {"numpy_plan": plan_state, **rng_states(device)},
-                          "progress": progress,
-                          **({} if averaged is None else {"averaged": averaged.state_dict()})},
+                          "progress": progress},
                          None if losses is None else {"losses": list(losses)})
 
     for epoch in range(state["epoch"] + 1, total_epochs + 1):
@@ -396,9 +332,9 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
         plan = epoch_plan(train_scenes, settings, rng)
         loss = train_epoch(model, optimizer, train_scenes, settings, plan, epoch, partial_losses,
                            device, preemption, lambda losses: save_checkpoint(plan_state, losses),
-                           total_epochs, averaged)
+                           total_epochs)
         partial_losses = []
-        scores = validate(evaluated, val_scenes, settings)
+        scores = validate(model, val_scenes, settings)
         state["seconds"] += time.perf_counter() - start
         state["history"].append({"epoch": epoch, "train_loss": loss, **scores,
                                  "seconds": state["seconds"]})
@@ -406,7 +342,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
               f"FDE {scores['val_fde']:.2f}  ({state['seconds']:.0f} s)")
         if state["best"] is None or scores["val_ade"] < state["best"]["val_ade"]:
             state["best"] = {"epoch": epoch, **scores}
-            save_torch({"model": evaluated.state_dict(), "config": asdict(model.config),
+            save_torch({"model": model.state_dict(), "config": asdict(model.config),
                          "settings": asdict(settings), "epoch": epoch}, kept_best)
         state["epoch"] = epoch
         save_checkpoint(rng.bit_generator.state, None)

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import random
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -50,7 +49,6 @@ from pipeline.data.window_table import WindowArrays
 from pipeline import checkpoints
 from pipeline.harness import epoch_selection
 from pipeline.device import CPU, restore_rng_states, rng_states, to_device
-from pipeline.device import generator as seeded_generator
 from pipeline.io import save_torch
 from pipeline.preemption import NEVER, Preemption
 
@@ -146,17 +144,7 @@ def mlp(sizes: list[int], activation: type[nn.Module] = nn.ReLU, last_activation
 
 
 # ---------------------------------------------------------------------------------------------
-# Seeds and checkpoints
-
-
-def seed_everything(seed: int, device: torch.device = CPU) -> torch.Generator:
-    """Seed Python, numpy and torch's global RNGs (CPU and CUDA); return a torch.Generator on
-    `device` seeded with `seed` that the training loop draws all its randomness from (shuffling,
-    noise, latents). On the CPU it is the generator the CPU runs have always used."""
-    random.seed(seed)
-    np.random.seed(seed)
-    torch.manual_seed(seed)
-    return seeded_generator(device, seed)
+# Checkpoints
 
 
 def as_input(values: np.ndarray, device: torch.device, dtype: torch.dtype | None = None) -> torch.Tensor:
@@ -359,16 +347,6 @@ def _restore_rng(state: dict[str, Any], generator: torch.Generator, device: torc
         tqdm.write(f"{path}: written on {saved_on}, resuming on {generator.device.type}: the training "
                    "generator restarts from a seed derived from its saved state")
     restore_rng_states(rng, device)
-
-
-def fingerprint(seed: int, *arrays: WindowArrays) -> str:
-    """SHA-256 of the seed and the windows (ids, scenes, frames, positions) a model is fitted on."""
-    digest = hashlib.sha256(str(seed).encode())
-    for a in arrays:
-        for values in (a.window_id, a.first_frame, a.past, a.future):
-            digest.update(np.ascontiguousarray(values).tobytes())
-        digest.update("\x00".join(a.scene_id.astype(str)).encode())
-    return digest.hexdigest()
 
 
 def fit_result_from(checkpoint_dir: Path) -> FitResult:

@@ -36,6 +36,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from pipeline import checkpoints
 from pipeline.config import PecnetConfig
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.common import FitResult, as_input, mlp
@@ -190,7 +191,7 @@ class Pecnet:
         epoch's weights once it is validated (a diagnostic's per-epoch hook; None: training only)."""
         if len(train) == 0 or len(val) == 0:
             raise ValueError("PECNet needs training and validation windows")
-        rng = common.seed_everything(seed, device)
+        rng = checkpoints.seed_everything(seed, device)
         model = cls(config, train.past.shape[1], train.future.shape[1], device)
         common.check_windows(val, model.n_past, model.n_future, "validation windows")
         optimizer = torch.optim.Adam(model.net.parameters(), lr=config.learning_rate)
@@ -217,7 +218,7 @@ class Pecnet:
             loss_names=("loss_endpoint", "loss_kl", "loss_path"), validate=validate,
             epochs=config.epochs, config=dataclasses.asdict(config),
             meta={"n_past": model.n_past, "n_future": model.n_future, "seed": seed},
-            data_fingerprint=common.fingerprint(seed, train, val),
+            data_fingerprint=checkpoints.run_digest(str(seed), train, val),
             checkpoint_dir=checkpoint_dir, generator=rng, device=device, preemption=preemption,
             after_epoch=None if after_epoch is None else (lambda epoch: after_epoch(model, epoch)))
         return model

@@ -28,6 +28,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from pipeline import checkpoints
 from pipeline.config import SganConfig
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.common import FitResult, as_input, mlp
@@ -199,7 +200,7 @@ class SocialGan:
             seed: int, device: torch.device = CPU, preemption: Preemption = NEVER) -> SocialGan:
         if len(train) == 0 or len(val) == 0:
             raise ValueError("S-GAN needs training and validation windows")
-        rng = common.seed_everything(seed, device)
+        rng = checkpoints.seed_everything(seed, device)
         model = cls(config, train.past.shape[1], train.future.shape[1], device)
         common.check_windows(val, model.n_past, model.n_future, "validation windows")
         opt_g = torch.optim.Adam(model.generator.parameters(), lr=config.learning_rate)
@@ -224,7 +225,7 @@ class SocialGan:
             train_batch=train_batch, loss_names=("loss_d", "loss_adv", "loss_l2"),
             validate=validate, epochs=config.epochs, config=dataclasses.asdict(config),
             meta={"n_past": model.n_past, "n_future": model.n_future, "seed": seed},
-            data_fingerprint=common.fingerprint(seed, train, val),
+            data_fingerprint=checkpoints.run_digest(str(seed), train, val),
             checkpoint_dir=checkpoint_dir, generator=rng, device=device, preemption=preemption)
         return model
 
