@@ -624,9 +624,10 @@ class YnetSettings:
     encoder_channels: list[int] = field(default_factory=lambda: [32, 32, 64, 64, 64])
     decoder_channels: list[int] = field(default_factory=lambda: [64, 64, 64, 32, 32])
     distance_gain: float = 1.0
-    """Multiplies the distance maps, the authors' divided by their constant (1 = the authors'). Their slope is tiny (2 / 371 per
-    pixel at resize 0.125), so the decoders need large weights to turn a distance map into a sharp
-    peak; a steeper input reaches those in far fewer steps (see the README's profile table)."""
+    """Multiplies the distance maps, the authors' divided by their constant (1 = the authors').
+    Their slope is tiny (2 / 371 per pixel at resize 0.125), so the decoders need large weights to
+    turn a distance map into a sharp peak; a steeper input reaches those in far fewer steps (see
+    the README's profile table)."""
     seed: int = 0
     """Seeds weights, shuffling and augmentation draws."""
     threads: int = 2
