@@ -31,9 +31,11 @@ PYTHON = sys.executable
 GPU_STEP = ("import json, os, sys, time; start = time.time(); time.sleep(1.5); "
             "json.dump({'cuda': os.environ['CUDA_VISIBLE_DEVICES'], 'start': start, "
             "'end': time.time()}, open(sys.argv[1], 'w'))")
-# a resumable training: one checkpoint per epoch in a persist output; each attempt noted
+# a resumable training: one checkpoint per epoch in a persist output; each attempt noted; on
+# SIGTERM it notes it and exits 143, as our trainings do once they saved a checkpoint
 TRAIN = """\
-import json, os, pathlib, time
+import json, os, pathlib, signal, sys, time
+signal.signal(signal.SIGTERM, lambda *_: (open("terminated.txt", "a").write("x"), sys.exit(143)))
 checkpoint = pathlib.Path("checkpoints/last.json")
 checkpoint.parent.mkdir(exist_ok=True)
 epoch = json.loads(checkpoint.read_text())["epoch"] if checkpoint.exists() else 0
@@ -119,6 +121,25 @@ def test_gpus_are_counted_from_cuda_visible_devices_else_nvidia_smi():
     assert parallel_repro.visible_gpus("", listing) == []
     assert parallel_repro.visible_gpus("-1", listing) == []
     assert parallel_repro.visible_gpus(None, "") == []
+
+
+def test_a_command_ended_by_its_machine_is_retried_and_the_stages_own_failure_is_not():
+    interrupted = stage_worker.interrupted
+    assert interrupted(-signal.SIGKILL, None, False) and interrupted(137, None, False)
+    assert interrupted(143, None, False)  # a training that saved its checkpoint on SIGTERM
+    assert interrupted(1, None, True)  # whatever it ended with while its worker shut down
+    assert not interrupted(1, None, False) and not interrupted(0, None, True)
+    assert not interrupted(-signal.SIGTERM, signal.SIGTERM, False)  # the driver's stop
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="prctl is Linux's")
+def test_a_command_is_launched_to_die_with_its_worker():
+    argv = ["/bin/sh", "-c", "exit 3"]
+    launched = stage_worker.launcher(argv)
+    assert launched[:3] == [sys.executable, "-c", stage_worker.DIE_WITH_WORKER]
+    assert launched[3] == str(os.getpid()) and launched[4:] == argv
+    assert subprocess.run(launched).returncode == 3  # it becomes the command
+    assert subprocess.run([*launched[:3], "1", *argv]).returncode == 143  # its parent is gone
 
 
 def test_a_stage_no_worker_can_take_is_named():
@@ -235,10 +256,30 @@ def test_the_stop_signal_reaches_a_command_on_a_worker(project, gpu_cluster):
     assert not (project / "dvc.lock").exists()  # nothing finished, nothing locked
 
 
+def test_a_command_its_machine_killed_is_retried_and_a_failing_one_is_not(project, gpu_cluster):
+    """`dies` is SIGKILLed on its first try (as by the OOM killer, or its machine going down a
+    moment before its worker could tell): retried, it finishes; `fails` exits 1: not retried."""
+    once = ("import os, pathlib, signal; tries = pathlib.Path('tries'); "
+            "tries.write_text(tries.read_text() + 'x' if tries.exists() else 'x'); "
+            "len(tries.read_text()) > 1 or os.kill(os.getpid(), signal.SIGKILL); "
+            "pathlib.Path('dies.txt').write_text('ok')")
+    fail = ("import pathlib, sys; failed = pathlib.Path('failed'); "
+            "failed.write_text(failed.read_text() + 'x' if failed.exists() else 'x'); sys.exit(1)")
+    write_dvc_yaml(project, {"dies": {"cmd": f"{PYTHON} -c \"{once}\"", "outs": ["dies.txt"]},
+                             "fails": {"cmd": f"{PYTHON} -c \"{fail}\"", "deps": ["dies.txt"],
+                                       "outs": ["never.txt"]}})
+    code, seconds = parallel_repro.run_stages([], root=str(project),
+                                              address=gpu_cluster.scheduler_address)
+    assert code == 1 and set(seconds) == {"dies"}
+    assert (project / "tries").read_text() == "xx" and (project / "dies.txt").read_text() == "ok"
+    assert (project / "failed").read_text() == "x"
+
+
 def test_a_worker_killed_mid_training_its_stage_resumes_elsewhere(project, gpu_cluster):
-    """As if the worker's machine died: worker and command get SIGKILL after the first epochs;
-    the task runs again, the checkpoint (a persist output) is still there, the training resumes,
-    and the lock is an uninterrupted run's."""
+    """As if the OOM killer took the worker: the worker gets SIGKILL after the first epochs, its
+    command SIGTERM from the kernel (rather than running on beside its retry); the task runs
+    again, the checkpoint (a persist output) is still there, the training resumes, and the lock is
+    an uninterrupted run's."""
     from distributed import Client
 
     (project / "train.py").write_text(TRAIN)
@@ -253,7 +294,6 @@ def test_a_worker_killed_mid_training_its_stage_resumes_elsewhere(project, gpu_c
         while json.loads(when(project / "checkpoints" / "last.json"))["epoch"] < 2:
             time.sleep(0.1)
         [worker] = [p.pid for p in psutil.Process(pid).parents() if p.pid in worker_pids]
-        os.killpg(os.getpgid(pid), signal.SIGKILL)
         os.kill(worker, signal.SIGKILL)
 
     killer = threading.Thread(target=kill_the_worker_after_two_epochs, daemon=True)
@@ -262,6 +302,7 @@ def test_a_worker_killed_mid_training_its_stage_resumes_elsewhere(project, gpu_c
                                               address=gpu_cluster.scheduler_address)
     killer.join(timeout=1)
     assert code == 0 and set(seconds) == {"train"}
+    assert (project / "terminated.txt").read_text() == "x"  # the first try: SIGTERM, once
     attempts = [line.split() for line in (project / "attempts.txt").read_text().splitlines()]
     assert len(attempts) == 2 and int(attempts[1][1]) >= 2  # the second resumed from epoch >= 2
     assert (project / "model.txt").read_text() == "trained 6 epochs\n" and clean(project)

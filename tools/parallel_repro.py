@@ -38,7 +38,11 @@ costs the scheduler nothing, works on any shared mount and keeps what a dead wor
 
 Faults: a task whose worker dies is run again on another one (the scheduler's `allowed-failures`,
 1 on the local cluster; an external scheduler's own setting decides there) and a task that raises
-is retried once (`retries=1`). DVC's part is not repeated, so a retry does not remove outputs; a
+is retried once (`retries=1`): a command its machine ended (killed by a signal the driver did not
+send, or its worker shutting down: `stage_worker.interrupted`) raises, whichever of the worker and
+the command went first; a killed worker's command gets SIGTERM rather than running on beside its
+retry (`stage_worker.DIE_WITH_WORKER`). A finished task is released at once, so that its worker
+dying later cannot run a locked stage again. DVC's part is not repeated, so a retry does not remove outputs; a
 training's checkpoint folder is a `persist: true` output, which `remove_outs` never deletes
 anyway, so the retried training resumes from its `last.pt` (saved every epoch, and mid-epoch on
 SIGTERM). A failed stage starts nothing more; the run ends with 1 once the running stages end, and
@@ -441,6 +445,7 @@ class StageRunner:
             print(f"ERROR: failed to reproduce '{name}': {future.exception()!r}", flush=True)
             return False
         result = future.result()
+        future.release()  # the scheduler forgets it: a worker lost later does not rerun the stage
         if result["code"] != 0:
             print(f"ERROR: failed to reproduce '{name}': exited with {result['code']}",
                   flush=True)

@@ -10,6 +10,13 @@ tails. `StageCommands`, a worker plugin, remembers which commands run on its wor
 `stop_commands` (sent by the driver through `client.run`) can signal their process groups, and so
 that a worker shutting down (a SLURM job's end) sends them SIGTERM: trainings then save a
 resumable checkpoint before the task is retried elsewhere.
+
+A worker killed outright (SIGKILL, the OOM killer) cannot pass anything on, and a command in its
+own session would outlive it, running beside its own retry; on Linux each command therefore asks
+the kernel for SIGTERM when the worker thread that started it dies (`DIE_WITH_WORKER`), and saves
+its checkpoint as on any SIGTERM. A command that ends by a signal the driver did not send, or while
+its worker shuts down, is a fault of the machine rather than of the stage (`interrupted`): the task
+raises, so that Dask runs it again (`retries=1`) instead of the run failing.
 """
 
 from __future__ import annotations
@@ -19,12 +26,27 @@ import os
 import signal
 import socket
 import subprocess
+import sys
 import time
 from pathlib import Path
 
 from distributed import WorkerPlugin, get_worker
 
 PLUGIN_NAME = "ynet-stage-commands"
+# `python -c DIE_WITH_WORKER <worker pid> argv...`: SIGTERM once the thread that started it dies
+# (prctl PR_SET_PDEATHSIG, kept across exec), then exec the command: same pid, same process group.
+# A launcher rather than a preexec_fn, which is not safe in a process with threads (a worker).
+DIE_WITH_WORKER = ("import ctypes, os, signal, sys; "
+                   "ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM); "
+                   "os.getppid() == int(sys.argv[1]) or sys.exit(143); "
+                   "os.execvp(sys.argv[2], sys.argv[2:])")
+# a command's exit code that says it was killed, through a shell that forked it (dash does), or
+# a training that saved its checkpoint on SIGTERM (exit 143)
+KILLED_CODES = {128 + signal.SIGKILL, 128 + signal.SIGTERM}
+
+
+class CommandInterrupted(RuntimeError):
+    """A stage command ended by its machine, not by its own failure: raised so Dask retries it."""
 
 
 class StageCommands(WorkerPlugin):
@@ -36,11 +58,13 @@ class StageCommands(WorkerPlugin):
     def __init__(self):
         self.running: dict[int, subprocess.Popen] = {}
         self.stopping: int | None = None
+        self.leaving = False  # the worker shuts down: what its commands end with is retried
 
     def setup(self, worker):
-        self.running, self.stopping = {}, None
+        self.running, self.stopping, self.leaving = {}, None, False
 
     def teardown(self, worker):
+        self.leaving = True
         signal_groups(self.running.values(), signal.SIGTERM)
 
 
@@ -57,11 +81,28 @@ def signal_groups(processes, signum: int) -> int:
     return sent
 
 
+def interrupted(code: int, stopping: int | None, leaving: bool) -> bool:
+    """Whether a command's exit `code` is its machine's doing, to be retried: killed by a signal
+    the driver did not send (its worker's machine going down, the OOM killer), or ended while its
+    worker was shutting down. The driver's stop, and any other exit, are the stage's own."""
+    if code == 0 or stopping is not None:
+        return False
+    return leaving or code < 0 or code in KILLED_CODES
+
+
+def launcher(argv: list[str]) -> list[str]:
+    """`argv` behind DIE_WITH_WORKER where the kernel offers it (Linux), else as it is."""
+    if not sys.platform.startswith("linux"):
+        return argv
+    return [sys.executable, "-c", DIE_WITH_WORKER, str(os.getpid()), *argv]
+
+
 def run_commands(commands: list[tuple[str, list[str]]], cwd: str, env: dict[str, str],
                  log_path: str, gpu: bool) -> dict:
     """A Dask task: run a stage's commands ((shown line, argv) each) one after the other, output
-    appended to `log_path`; stops at the first that fails or once a stop signal came. The command
-    sees only the worker's GPU (its CUDA_VISIBLE_DEVICES) if the stage asked for one, else none."""
+    appended to `log_path`; stops at the first that fails or once a stop signal came, and raises
+    CommandInterrupted if its machine ended it (`interrupted`). The command sees only the worker's
+    GPU (its CUDA_VISIBLE_DEVICES) if the stage asked for one, else none."""
     worker = get_worker()
     commands_plugin = worker.plugins[PLUGIN_NAME]
     visible = os.environ.get("CUDA_VISIBLE_DEVICES", "") if gpu else ""
@@ -74,7 +115,7 @@ def run_commands(commands: list[tuple[str, list[str]]], cwd: str, env: dict[str,
             if commands_plugin.stopping is not None:
                 break  # stopped between two of its commands: unfinished
             log.write(f"> {shown}\n".encode())
-            process = subprocess.Popen(argv, cwd=cwd, env=full_env, stdout=log,
+            process = subprocess.Popen(launcher(argv), cwd=cwd, env=full_env, stdout=log,
                                        stderr=subprocess.STDOUT, start_new_session=True,
                                        close_fds=True)
             commands_plugin.running[process.pid] = process
@@ -84,6 +125,9 @@ def run_commands(commands: list[tuple[str, list[str]]], cwd: str, env: dict[str,
                 result["code"] = process.wait()
             finally:
                 commands_plugin.running.pop(process.pid, None)
+            if interrupted(result["code"], commands_plugin.stopping, commands_plugin.leaving):
+                raise CommandInterrupted(f"{shown!r} ended with {result['code']} on "
+                                         f"{worker.address}: its machine's doing, retried")
             if result["code"] != 0:
                 break
         else:
