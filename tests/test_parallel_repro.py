@@ -1,6 +1,7 @@
 """tools/parallel_repro.py on its default cluster (a LocalCluster of this machine): single-threaded
-stages run two at a time, with the lock a serial `dvc repro` would write. The integration tests build a four-stage DVC project in a temp folder:
-prep -> (left, right) -> join, where left and right sleep and record when they ran."""
+stages run two at a time, with the lock a serial `dvc repro` would write. The integration tests
+build a four-stage DVC project in a temp folder: prep -> (left, right) -> join, where left and
+right sleep and record when they ran."""
 
 import json
 import os

@@ -139,7 +139,8 @@ def test_jobs_is_taken_out_of_the_dvc_arguments():
 
 
 def test_address_is_taken_out_of_the_dvc_arguments():
-    assert timed_repro.split_address(["--address", "tcp://h:8786", "-f"]) == ("tcp://h:8786", ["-f"])
+    assert timed_repro.split_address(["--address", "tcp://h:8786", "-f"]) == ("tcp://h:8786",
+                                                                              ["-f"])
     assert timed_repro.split_address(["report"]) == (None, ["report"])
     with pytest.raises(SystemExit, match="--address"):
         timed_repro.split_address(["--address"])

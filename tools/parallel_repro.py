@@ -42,10 +42,10 @@ is retried once (`retries=1`): a command its machine ended (killed by a signal t
 send, or its worker shutting down: `stage_worker.interrupted`) raises, whichever of the worker and
 the command went first; a killed worker's command gets SIGTERM rather than running on beside its
 retry (`stage_worker.DIE_WITH_WORKER`). A finished task is released at once, so that its worker
-dying later cannot run a locked stage again. DVC's part is not repeated, so a retry does not remove outputs; a
-training's checkpoint folder is a `persist: true` output, which `remove_outs` never deletes
-anyway, so the retried training resumes from its `last.pt` (saved every epoch, and mid-epoch on
-SIGTERM). A failed stage starts nothing more; the run ends with 1 once the running stages end, and
+dying later cannot run a locked stage again. DVC's part is not repeated, so a retry does not
+remove outputs; a training's checkpoint folder is a `persist: true` output, which `remove_outs`
+never deletes anyway, so the retried training resumes from its `last.pt` (saved every epoch, and
+mid-epoch on SIGTERM). A failed stage starts nothing more; the run ends with 1 once the running stages end, and
 dvc.lock holds exactly the stages that finished. SIGINT / SIGTERM to the driver goes, once, to
 every running command's process group on every worker (`stage_worker.stop_commands`); the run
 ends with 128 + the signal's number.

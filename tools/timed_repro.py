@@ -13,9 +13,9 @@ run of named stages, only if the report was among them (else `dvc repro report` 
 other stale stage, unclocked).
 
 With `--jobs N` (what `make repro` passes: the CPU count, 2 on our machine) the stages run
-through tools/parallel_repro.py, which runs up to N single-threaded stages at once; each stage is then clocked from its start to
-its lock update as before, so on 2 cores the stages' times sum to more than the run's wall time
-(the record's `seconds`). parallel_repro runs the commands on a Dask cluster: a LocalCluster of
+through tools/parallel_repro.py, which runs up to N single-threaded stages at once; each stage is
+then clocked from its start to its lock update as before, so on 2 cores the stages' times sum to
+more than the run's wall time (the record's `seconds`). parallel_repro runs the commands on a Dask cluster: a LocalCluster of
 this machine, or with `--address tcp://host:port` (which implies the parallel run) a running one.
 
     python tools/timed_repro.py [--jobs N] [--address tcp://host:port] [dvc repro arguments...]
