@@ -27,8 +27,12 @@ from parallel_repro import SetupError  # noqa: E402
 from tests.test_parallel_repro import clean, make_project  # noqa: E402
 
 PYTHON = sys.executable
-# a fake GPU stage: records which device it was given and when it ran
-GPU_STEP = ("import json, os, sys, time; start = time.time(); time.sleep(1.5); "
+# a fake GPU stage: records which device it was given and when it ran; it ends once two such
+# stages have started (or after 10 s), so two that run side by side overlap however slow the
+# machine, and two that run one after the other do not
+GPU_STEP = ("import glob, json, os, sys, time; start = time.time(); "
+            "open(sys.argv[1] + '.started', 'w').close(); "
+            "[time.sleep(0.05) for _ in range(200) if len(glob.glob('*.started')) < 2]; "
             "json.dump({'cuda': os.environ['CUDA_VISIBLE_DEVICES'], 'start': start, "
             "'end': time.time()}, open(sys.argv[1], 'w'))")
 # a resumable training: one checkpoint per epoch in a persist output; each attempt noted; on
