@@ -225,6 +225,32 @@ def test_a_gpu_stage_on_a_cpu_only_cluster_fails_before_anything_is_written(proj
     assert not (project / "dvc.lock").exists() and not (project / "prep.txt").exists()
 
 
+def test_a_worker_that_does_not_say_which_project_it_sees_is_named_in_time(project, gpu_cluster,
+                                                                          monkeypatch):
+    """As on a hung NFS mount: one worker's project check blocks; the run stops within the
+    timeout, names that worker alone, and writes nothing."""
+    from distributed import Client
+
+    write_dvc_yaml(project, deterministic_stages())
+    with Client(gpu_cluster, set_as_default=False) as client:
+        hung, answering = sorted(client.scheduler_info()["workers"])
+    fingerprint = stage_worker.project_fingerprint
+
+    def hangs_on_one_worker(root, dask_worker=None):  # client.run passes its worker
+        if dask_worker is not None and dask_worker.address == hung:
+            time.sleep(4)
+        return fingerprint(root)
+
+    monkeypatch.setattr(stage_worker, "project_fingerprint", hangs_on_one_worker)
+    since = time.monotonic()
+    with pytest.raises(SetupError, match="no answer within 1 s") as raised:
+        parallel_repro.run_stages([], root=str(project), address=gpu_cluster.scheduler_address,
+                                  connect_timeout=1)
+    assert time.monotonic() - since < 4
+    assert hung in str(raised.value) and answering not in str(raised.value)
+    assert not (project / "dvc.lock").exists() and not (project / "prep.txt").exists()
+
+
 def test_an_unreachable_scheduler_fails_fast_and_names_its_address(project):
     write_dvc_yaml(project, deterministic_stages())
     since = time.monotonic()

@@ -27,10 +27,11 @@ CUDA_VISIBLE_DEVICES when set; torch is not imported here) N worker processes, o
 cores shared out. `--address tcp://host:port` uses a running scheduler instead (dask-jobqueue,
 dask-kubernetes: docs/cluster.md).
 
-Before anything is written the run checks that it can work (`SetupError`, within a minute): the
-scheduler answers and has a worker, every worker sees the project at the same path with the same
-code (git HEAD and a hash of the tracked .py files, `stage_worker.project_fingerprint`), and every
-stage's resources are offered by some worker.
+Before anything is written the run checks that it can work (`SetupError`, each check within
+CONNECT_TIMEOUT_S): the scheduler answers and has a worker, every worker sees the project at the
+same path with the same code (git HEAD and a hash of the tracked .py files,
+`stage_worker.project_fingerprint`; a worker that does not answer, as on a hung mount, is named),
+and every stage's resources are offered by some worker.
 
 Output: a worker appends its commands' output to `.dvc/tmp/stage-logs/<stage>.log` on the shared
 filesystem and the driver tails it: each line labelled `[stage]`, progress bars thinned. A file
@@ -74,7 +75,8 @@ import stage_worker
 
 ALONE, SHARED = "alone", "shared"  # how a stage's command may run: by itself or beside others
 PROGRESS_EVERY_S = 30.0  # how often a concurrent stage's progress bar (lines ended by \r) is echoed
-CONNECT_TIMEOUT_S = 30  # to reach the scheduler, then as long again for a first worker
+CONNECT_TIMEOUT_S = 30  # to reach the scheduler; as long again for a first worker, and for
+# every worker to say which project it sees
 LOG_DIR = ".dvc/tmp/stage-logs"  # DVC's tmp: neither git nor DVC track it
 
 
@@ -240,13 +242,35 @@ def connect(address: str, timeout: float):
     return client
 
 
-def check_workers(client, root: str) -> dict[str, dict[str, float]]:
+def fingerprints(client, root: str, timeout: float) -> dict[str, object]:
+    """Each worker's `stage_worker.project_fingerprint` of `root`, or what it raised, or a
+    TimeoutError if it has not answered within `timeout` (a hung shared mount never does): one
+    question per worker, so the silent ones can be named."""
+    addresses = sorted(client.scheduler_info()["workers"])
+    answers: dict[str, object] = {}
+
+    def ask(address: str) -> None:
+        answers.update(client.run(stage_worker.project_fingerprint, root, workers=[address],
+                                  on_error="return"))
+
+    askers = [threading.Thread(target=ask, args=(address,), daemon=True) for address in addresses]
+    deadline = time.monotonic() + timeout
+    for asker in askers:
+        asker.start()
+    for asker in askers:
+        asker.join(max(deadline - time.monotonic(), 0))
+    silent = TimeoutError(f"no answer within {timeout:.0f} s (is the shared filesystem hung?)")
+    return {address: answers.get(address, silent) for address in addresses}
+
+
+def check_workers(client, root: str, timeout: float = CONNECT_TIMEOUT_S
+                  ) -> dict[str, dict[str, float]]:
     """Every worker's resources, once every worker sees the project as the driver does; else
-    SetupError naming each worker and what differs."""
+    SetupError naming each worker and what differs, within `timeout`."""
     driver = stage_worker.project_fingerprint(root)
-    seen = client.run(stage_worker.project_fingerprint, root, on_error="return")
+    seen = fingerprints(client, root, timeout)
     problems = []
-    for address, fingerprint in sorted(seen.items()):
+    for address, fingerprint in seen.items():
         if isinstance(fingerprint, BaseException):
             problems.append(f"worker {address}: {type(fingerprint).__name__}: {fingerprint}")
             continue
@@ -255,8 +279,9 @@ def check_workers(client, root: str) -> dict[str, dict[str, float]]:
     if problems:
         raise SetupError("workers must see this project on a shared filesystem, at the same path, "
                          "with the same code (docs/cluster.md):\n  " + "\n  ".join(problems))
-    return {address: dict(info.get("resources") or {})
-            for address, info in client.scheduler_info()["workers"].items()}
+    workers = client.scheduler_info()["workers"]
+    return {address: dict(workers[address].get("resources") or {})
+            for address in seen if address in workers}  # one that joined since is not checked
 
 
 def cluster_line(client, offered: Mapping[str, Mapping[str, float]]) -> str:
@@ -326,7 +351,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
             cluster.close()
         raise
     try:
-        offered = check_workers(client, repo.root_dir)
+        offered = check_workers(client, repo.root_dir, connect_timeout)
         print(cluster_line(client, offered), flush=True)
         whole = min(int(offer.get("threads", 1)) for offer in offered.values())
         has_gpus = any(offer.get("GPU", 0) >= 1 for offer in offered.values())
