@@ -250,8 +250,11 @@ def fingerprints(client, root: str, timeout: float) -> dict[str, object]:
     answers: dict[str, object] = {}
 
     def ask(address: str) -> None:
-        answers.update(client.run(stage_worker.project_fingerprint, root, workers=[address],
-                                  on_error="return"))
+        try:
+            answers.update(client.run(stage_worker.project_fingerprint, root, workers=[address],
+                                      on_error="return"))
+        except Exception as error:  # the connection went (the client closed after a time-out)
+            answers[address] = error
 
     askers = [threading.Thread(target=ask, args=(address,), daemon=True) for address in addresses]
     deadline = time.monotonic() + timeout
