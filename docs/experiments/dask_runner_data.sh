@@ -1,13 +1,13 @@
 #!/bin/bash
-# Data stages forced with the runner before (02593d7) and after (Dask): wall seconds and whether
-# Run from a worktree of the commit under test; compares against the runner of commit 02593d7.
+# Data stages forced with the runner before (44fff97) and after (Dask): wall seconds and whether
+# Run from a worktree of the commit under test; compares against the runner of commit 44fff97.
 # every output hash in dvc.lock equals the committed one.
 cd /work/wt-bench
 export PATH=/work/wt-bench/.venv/bin:$PATH
 STAGES="tracks windows horizon_windows chain_bias audit"
 for side in new old; do
   git checkout -q HEAD -- tools/ dvc.lock
-  [ $side = old ] && git checkout -q 02593d7 -- tools/parallel_repro.py tools/timed_repro.py && rm -f tools/stage_worker.py
+  [ $side = old ] && git checkout -q 44fff97 -- tools/parallel_repro.py tools/timed_repro.py && rm -f tools/stage_worker.py
   start=$(date +%s.%N)
   python tools/timed_repro.py --jobs 2 -f -s $STAGES > /work/runs/daskbench/data-$side.log 2>&1
   rc=$?

@@ -1,6 +1,6 @@
 #!/bin/bash
-# make repro's runner before (02593d7, home-made loop) and after (Dask): the same 4 forced
-# Run from a worktree of the commit under test; compares against the runner of commit 02593d7.
+# make repro's runner before (44fff97, home-made loop) and after (Dask): the same 4 forced
+# Run from a worktree of the commit under test; compares against the runner of commit 44fff97.
 # single-threaded stages, 2 at once, alternated; wall seconds and the stages' dvc.lock entries.
 cd /work/wt-bench
 export PATH=/work/wt-bench/.venv/bin:$PATH
@@ -8,7 +8,7 @@ STAGES="train_baseline@sgan-40 train_baseline@sgan-50 train_baseline@pecnet-40 t
 for round in 1 2; do
   for side in new old; do
     git checkout -q HEAD -- tools/
-    [ $side = old ] && git checkout -q 02593d7 -- tools/parallel_repro.py tools/timed_repro.py && rm -f tools/stage_worker.py
+    [ $side = old ] && git checkout -q 44fff97 -- tools/parallel_repro.py tools/timed_repro.py && rm -f tools/stage_worker.py
     rm -rf checkpoints/sgan_tf40 checkpoints/sgan_tf50 checkpoints/pecnet_tf40 checkpoints/pecnet_tf50
     start=$(date +%s.%N)
     python tools/timed_repro.py --jobs 2 -f -s $STAGES > /work/runs/daskbench/$side-$round.log 2>&1

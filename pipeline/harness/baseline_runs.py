@@ -34,7 +34,7 @@ from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, SCORING, TRAINING, describe, select_device
 from pipeline.harness import baselines, epoch_selection
 from pipeline.harness.baselines.common import best_path, fit_result_from, load_checkpoint
-from pipeline.harness.model_runs import score_rounds
+from pipeline.harness.model_runs import score_rounds, split_to_score
 from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
 from pipeline.io import write_json
 from pipeline.models import WindowSet, window_set
@@ -146,22 +146,15 @@ def training_seed(checkpoint_dir: Path) -> int:
     return int(load_checkpoint(best_path(checkpoint_dir))["meta"]["seed"])
 
 
-def training_facts(model: str, checkpoint_dir: Path | None, selection: str = "raw") -> dict:
-    """What the checkpoint records about its training (nothing for constant velocity): `best_epoch`
+def training_facts(model: str, checkpoint_dir: Path, selection: str = "raw") -> dict:
+    """What the checkpoint records about its training: `best_epoch`
     and `best_val_ade` are those of the epoch selection rule `selection` scored (its validation
     ADE unsmoothed), `lowest_val_epoch` the epoch `raw` keeps."""
-    if checkpoint_dir is None:
-        return {"train_seconds": 0.0}
     result = fit_result_from(checkpoint_dir)
     kept = load_checkpoint(best_path(checkpoint_dir, selection))
     return {"train_seconds": result.train_seconds, "trained_epochs": result.epochs,
             "epoch_selection": selection, "best_epoch": kept["epoch"], "best_val_ade": kept["val_ade"],
             "lowest_val_epoch": result.best_epoch, "trained_horizon": kept["meta"]["n_future"]}
-
-
-def split_to_score(arrays: WindowArrays, split: str) -> tuple[WindowSet, np.ndarray]:
-    """The windows of `split` as a model sees them (no future) and their true futures (N, n_f, 2)."""
-    return window_set(arrays, split, with_future=False), arrays.future[arrays.split == split]
 
 
 def ka_rows(baseline: baselines.Baseline, test: WindowSet, truth: np.ndarray, checkpoint_dir: Path,

@@ -91,6 +91,11 @@ def fit_facts(workdir: Path, name: str, horizon: int) -> dict[str, Any]:
     return facts
 
 
+def split_to_score(arrays: WindowArrays, split: str) -> tuple[WindowSet, np.ndarray]:
+    """The windows of `split` as a model sees them (no future) and their true futures (N, n_f, 2)."""
+    return window_set(arrays, split, with_future=False), arrays.future[arrays.split == split]
+
+
 def score_rounds(name: str, model, test: WindowSet, truth: np.ndarray, workdir: Path, k: int,
                  rounds: int, seed: int, kept: PredictionRounds | None = None) -> dict:
     """`seeded_rounds` of best-of-`k` errors of any model written to `pipeline.models`' contract
@@ -124,10 +129,9 @@ def predict_to_files(name: str, horizon: int, table: Path, workdir: Path, metric
     n_past = load_section(WindowParams, "windows", params).n_past
     facts = fit_facts(workdir, name, horizon)
     arrays = load_windows(table, n_past, horizon)
-    test = window_set(arrays, evaluation.split, with_future=False)
+    test, truth = split_to_score(arrays, evaluation.split)
     if len(test) == 0:
         raise ValueError(f"{table}: no {evaluation.split} windows")
-    truth = arrays.future[arrays.split == evaluation.split]
     model = load_model(entry)
     limit_torch_threads(evaluation.threads)
     print(f"predict_model {name} t_f = {horizon}: {len(test)} {evaluation.split} windows", flush=True)

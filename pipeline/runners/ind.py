@@ -51,7 +51,7 @@ from pipeline.device import CPU
 from pipeline.harness import baseline_runs, baselines
 from pipeline.harness.baselines.common import select_split
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet
-from pipeline.harness.model_runs import score_rounds
+from pipeline.harness.model_runs import score_rounds, split_to_score
 from pipeline.harness.predictions import IND_BENCHMARK, PredictionRounds, write_no_predictions
 from pipeline.io import (IntermediateError, atomic_dir, check_array, index_value, read_json_index,
                          read_npz, write_npz)
@@ -335,7 +335,7 @@ def score_baselines(long: WindowArrays, base: WindowArrays, settings: IndEvalSet
     torch.set_num_threads(settings.threads)
     horizon = long.future.shape[1]
     dirs = baseline_dirs(checkpoint_dir, horizon, base.future.shape[1])
-    test, truth = baseline_runs.split_to_score(long, evaluation.split)
+    test, truth = split_to_score(long, evaluation.split)
     models = {model: baselines.Baseline(model, device=device) for model in BASELINES}
     results, kept = {}, {}
     for model in BASELINE_MODELS:

@@ -22,7 +22,8 @@ from pipeline.config import (EvalParams, EvaluateBaselineParams, RuntimeParams, 
 from pipeline.data.window_table import load_windows
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness import baselines
-from pipeline.harness.baseline_runs import ka_rows, split_to_score
+from pipeline.harness.baseline_runs import ka_rows
+from pipeline.harness.model_runs import split_to_score
 from pipeline.io import write_json
 
 
