@@ -142,8 +142,10 @@ def test_a_command_is_launched_to_die_with_its_worker():
     launched = stage_worker.launcher(argv)
     assert launched[:3] == [sys.executable, "-c", stage_worker.DIE_WITH_WORKER]
     assert launched[3] == str(os.getpid()) and launched[4:] == argv
-    assert subprocess.run(launched).returncode == 3  # it becomes the command
+    assert subprocess.run(launched).returncode == 3  # it ends as the command does
     assert subprocess.run([*launched[:3], "1", *argv]).returncode == 143  # its parent is gone
+    killed = stage_worker.launcher(["/bin/sh", "-c", "kill -KILL $$"])
+    assert subprocess.run(killed).returncode == 128 + signal.SIGKILL  # as a shell says it
 
 
 def test_a_stage_no_worker_can_take_is_named():
@@ -305,11 +307,16 @@ def test_a_command_its_machine_killed_is_retried_and_a_failing_one_is_not(projec
     assert (project / "failed").read_text() == "x"
 
 
-def test_a_worker_killed_mid_training_its_stage_resumes_elsewhere(project, gpu_cluster):
+# DVC runs a command through $SHELL, else /bin/sh; dash (/bin/sh on Debian, and CI sets no SHELL)
+# forks the command where bash execs it, so the worker's death must reach a grandchild too
+@pytest.mark.parametrize("shell", ["/bin/bash", "/bin/sh"])
+def test_a_worker_killed_mid_training_its_stage_resumes_elsewhere(project, gpu_cluster, shell,
+                                                                 monkeypatch):
     """As if the OOM killer took the worker: the worker gets SIGKILL after the first epochs, its
-    command SIGTERM from the kernel (rather than running on beside its retry); the task runs
+    command SIGTERM through its supervisor (rather than running on beside its retry); the task runs
     again, the checkpoint (a persist output) is still there, the training resumes, and the lock is
     an uninterrupted run's."""
+    monkeypatch.setenv("SHELL", shell)
     from distributed import Client
 
     (project / "train.py").write_text(TRAIN)

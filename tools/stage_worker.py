@@ -12,9 +12,10 @@ that a worker shutting down (a SLURM job's end) sends them SIGTERM: trainings th
 resumable checkpoint before the task is retried elsewhere.
 
 A worker killed outright (SIGKILL, the OOM killer) cannot pass anything on, and a command in its
-own session would outlive it, running beside its own retry; on Linux each command therefore asks
-the kernel for SIGTERM when the worker thread that started it dies (`DIE_WITH_WORKER`), and saves
-its checkpoint as on any SIGTERM. A command that ends by a signal the driver did not send, or while
+own session would outlive it, running beside its own retry; on Linux each command therefore runs
+under a supervisor that the kernel tells when the worker thread that started it dies
+(`DIE_WITH_WORKER`) and that passes SIGTERM on to the command's whole process group, so the
+command saves its checkpoint as on any SIGTERM, whichever shell DVC runs it through. A command that ends by a signal the driver did not send, or while
 its worker shuts down, is a fault of the machine rather than of the stage (`interrupted`): the task
 raises, so that Dask runs it again (`retries=1`) instead of the run failing.
 """
@@ -33,13 +34,31 @@ from pathlib import Path
 from distributed import WorkerPlugin, get_worker
 
 PLUGIN_NAME = "ynet-stage-commands"
-# `python -c DIE_WITH_WORKER <worker pid> argv...`: SIGTERM once the thread that started it dies
-# (prctl PR_SET_PDEATHSIG, kept across exec), then exec the command: same pid, same process group.
+# `python -c DIE_WITH_WORKER <worker pid> argv...`: a small supervisor that asks the kernel for
+# SIGUSR1 once the thread that started it dies (prctl PR_SET_PDEATHSIG), then runs the command as
+# its child in its own process group. The kernel's signal reaches only the supervisor, and DVC's
+# shell may fork the command instead of exec'ing it (dash, /bin/sh on Debian, does), so the
+# supervisor passes the worker's death on as SIGTERM to the whole group: shell and command alike.
+# It ignores SIGTERM and SIGINT itself (the driver's stop reaches the group, the command among
+# it) and exits with the command's code (128 + N for a signal, as a shell does).
 # A launcher rather than a preexec_fn, which is not safe in a process with threads (a worker).
-DIE_WITH_WORKER = ("import ctypes, os, signal, sys; "
-                   "ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM); "
-                   "os.getppid() == int(sys.argv[1]) or sys.exit(143); "
-                   "os.execvp(sys.argv[2], sys.argv[2:])")
+DIE_WITH_WORKER = """\
+import ctypes, os, signal, sys
+worker, argv = int(sys.argv[1]), sys.argv[2:]
+signal.signal(signal.SIGTERM, signal.SIG_IGN)
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+signal.signal(signal.SIGUSR1, lambda *_: os.killpg(0, signal.SIGTERM))
+ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGUSR1)
+if os.getppid() != worker:
+    sys.exit(143)
+child = os.fork()
+if child == 0:
+    for signum in (signal.SIGTERM, signal.SIGINT, signal.SIGUSR1):
+        signal.signal(signum, signal.SIG_DFL)
+    os.execvp(argv[0], argv)
+code = os.waitstatus_to_exitcode(os.waitpid(child, 0)[1])
+sys.exit(128 - code if code < 0 else code)
+"""
 # a command's exit code that says it was killed, through a shell that forked it (dash does), or
 # a training that saved its checkpoint on SIGTERM (exit 143)
 KILLED_CODES = {128 + signal.SIGKILL, 128 + signal.SIGTERM}
