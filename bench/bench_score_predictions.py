@@ -40,15 +40,16 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's pipeline
 
 from bench import common  # noqa: E402
+from pipeline.benchmarks.sdd_long_term import (SDD_LONG_TERM, read_scales,  # noqa: E402
+                                               sdd_label_masks)
+from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD  # noqa: E402
 from pipeline.config import (DATASETS, ScorePredictionsParams, ShortTermParams,  # noqa: E402
                              WindowParams, load_section, read_params)
 from pipeline.data.window_table import conform  # noqa: E402
-from pipeline.harness.predictions import (concat_rounds, long_term_metadata,  # noqa: E402
-                                          predictions_table, write_predictions)
-from pipeline.harness.stored_scores import (long_term_benchmark_spec, read_scales,  # noqa: E402
-                                            score_benchmarks, score_tables, sdd_label_masks)
-from pipeline.harness.stored_short_term import benchmark_name, short_term_benchmarks  # noqa: E402
-from pipeline.harness.stored_short_term import table_path as short_term_table  # noqa: E402
+from pipeline.harness.predictions import (concat_rounds, predictions_table,  # noqa: E402
+                                          write_predictions)
+from pipeline.harness.stored_scores import (score_benchmarks, score_tables,  # noqa: E402
+                                            short_term_tables)
 from pipeline.io import write_parquet  # noqa: E402
 from ynet.segmentation import CLASS_NAMES  # noqa: E402
 
@@ -71,7 +72,7 @@ def score_long_term(root: Path, params_file: Path) -> dict:
     masks, scales = sdd_label_masks(root / LABELS, settings.forbidden_classes), read_scales(root / SCALES)
     paths = {f"tf{h}": root / HORIZON_WINDOWS / f"tf{h}.parquet" for h in windows.horizons}
     paths[Path(RELEASE_WINDOWS).stem] = root / RELEASE_WINDOWS
-    tables = {name: long_term_benchmark_spec(path, windows.n_past, masks, scales, root / SCALES)
+    tables = {name: SDD_LONG_TERM.scored_table(path, windows.n_past, masks, scales, root / SCALES)
               for name, path in paths.items()}
     return score_tables(tables, root / PREDICTIONS["long_term"], settings)
 
@@ -81,10 +82,10 @@ def score_short_term(root: Path, params_file: Path, datasets: list[str] = DATASE
     params = read_params(params_file)
     settings = load_section(ScorePredictionsParams, "score_predictions", params)
     n_past = load_section(ShortTermParams, "short_term", params).n_past
-    benchmarks = short_term_benchmarks(root / SHORT_TERM_WINDOWS, root / PREDICTIONS["short_term"],
-                                       datasets, n_past,
-                                       sdd_label_masks(root / LABELS, settings.forbidden_classes),
-                                       read_scales(root / SCALES), root / SCALES)
+    benchmarks = short_term_tables(root / SHORT_TERM_WINDOWS, root / PREDICTIONS["short_term"],
+                                   datasets, n_past,
+                                   sdd_label_masks(root / LABELS, settings.forbidden_classes),
+                                   read_scales(root / SCALES), root / SCALES)
     return score_benchmarks(benchmarks, settings)
 
 
@@ -152,15 +153,15 @@ def write_smoke_project(root: Path, params_file: Path) -> Path:
         for model in ("noisy_a", "noisy_b"):
             write_predictions(smoke_predictions(table, rng),
                               root / PREDICTIONS["long_term"] / name / f"{model}.parquet",
-                              {**long_term_metadata(model, path), "seeds": [0, 1]})
-    path = short_term_table(root / SHORT_TERM_WINDOWS, "sdd")
+                              {**SDD_LONG_TERM.prediction_metadata(model, path), "seeds": [0, 1]})
+    path = TRAJNET_SDD.table(root / SHORT_TERM_WINDOWS)
     table = smoke_table("test", SMOKE_FUTURE, rng)
     write_parquet(table, path)
     for model in ("noisy_a", "noisy_b"):
         write_predictions(smoke_predictions(table, rng),
                           root / PREDICTIONS["short_term"] / "sdd" / f"{model}.parquet",
-                          {"model": model, "benchmark": benchmark_name(path), "unit": "px",
-                           "seeds": [0, 1]})
+                          {"model": model, "benchmark": TRAJNET_SDD.prediction_benchmark(),
+                           "unit": "px", "seeds": [0, 1]})
     return params
 
 

@@ -30,6 +30,7 @@ from scipy.stats import gaussian_kde
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import common  # noqa: E402
+from pipeline.benchmarks.base import class_values  # noqa: E402
 from pipeline.harness import scoring  # noqa: E402
 
 SMOKE = {"scenes": 2, "agents": 6, "max_windows": 40}  # what --smoke changes in each case
@@ -124,7 +125,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.smoke:
         args.repeats = 1
-    forbidden = scoring.class_values()
+    forbidden = class_values()
     print(f"load average {os.getloadavg()[0]:.2f}; median of {args.repeats} runs, seconds")
     kde_steps = 20 if args.smoke else 1000
     for case in cases(args.smoke):

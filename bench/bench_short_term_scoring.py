@@ -33,10 +33,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import common, short_term_validation  # noqa: E402
 from bench.bench_training_precision import SMOKE_IMAGE_HW, synthetic_windows  # noqa: E402
+from pipeline.benchmarks.registry import short_term  # noqa: E402
 from pipeline.config import (EvalParams, ShortTermModelsParams, ShortTermParams,  # noqa: E402
                              load_profile, load_section, read_params)
 from pipeline.data.ynet_data import group_by_scene  # noqa: E402
-from pipeline.runners.short_term import ynet_options, ynet_settings  # noqa: E402
+from pipeline.runners.short_term import ynet_options  # noqa: E402
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
 from pipeline.runners.ynet_training import YnetSettings  # noqa: E402
 from ynet.model import YNet  # noqa: E402
@@ -70,8 +71,9 @@ def untrained(dataset: str, windows: int) -> short_term_validation.TrainedOnVali
     stage = load_profile(ShortTermModelsParams, "short_term_models", params)
     lengths = load_section(ShortTermParams, "short_term", params)
     classes = 6 if dataset == "sdd" else 3
-    settings = ynet_settings(common.tiny_ynet(load_profile(YnetSettings, "ynet", params)), stage,
-                             dataset, lengths.n_future, classes)
+    settings = short_term(dataset).ynet_settings(
+        common.tiny_ynet(load_profile(YnetSettings, "ynet", params)), stage, lengths.n_future,
+        classes)
     val, maps, sizes = synthetic_windows(windows, lengths.n_past, lengths.n_future, classes,
                                          image_hw=SMOKE_IMAGE_HW)
     torch.manual_seed(settings.seed)
@@ -95,7 +97,7 @@ def main() -> None:
     model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
                                             trained.val, trained.scenes)
     # as the stage samples
-    sampling = Sampling(ynet_options(settings, args.dataset, args.k), settings.seed)
+    sampling = Sampling(ynet_options(settings, short_term(args.dataset), args.k), settings.seed)
     configured = settings.eval_params()  # batch, chunk and bf16 as the stage scores
 
     def score(params: EvalParams) -> float:

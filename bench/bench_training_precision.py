@@ -35,11 +35,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench import common  # noqa: E402
 from bench.bench_profiles import IMAGE_HW  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
+from pipeline.benchmarks.ethucy import FOLDS  # noqa: E402
+from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD  # noqa: E402
 from pipeline.device import cpu_has_bf16  # noqa: E402
 from pipeline.config import ShortTermModelsParams, YnetSettings, load_profile, read_params  # noqa: E402
 from pipeline.data.window_table import WindowArrays  # noqa: E402
 from pipeline.data.ynet_data import group_by_scene  # noqa: E402
-from pipeline.runners.short_term import ynet_settings  # noqa: E402
 from pipeline.runners.ynet_training import epoch_plan, train_epoch  # noqa: E402
 from ynet.model import YNet  # noqa: E402
 
@@ -99,8 +100,8 @@ def main() -> None:
     if args.smoke:
         long_term = dataclasses.replace(long_term, **common.TINY_CHANNELS)
     short_params = load_profile(ShortTermModelsParams, "short_term_models", cpu)
-    short_term = ynet_settings(long_term, short_params, "sdd", 12, 6)
-    ethucy = ynet_settings(long_term, short_params, "eth", 12, 3)  # its maps: 3 classes
+    short_term = TRAJNET_SDD.ynet_settings(long_term, short_params, 12, 6)
+    ethucy = FOLDS["eth"].ynet_settings(long_term, short_params, 12, 3)  # its maps: 3 classes
     cases = {  # name: (settings, n_past, n_future)
         "long-term, batch 2, float32": (dataclasses.replace(long_term, bf16=False), 5, 30),
         "long-term, batch 2, bf16 (ynet.cpu)": (dataclasses.replace(long_term, bf16=True), 5, 30),

@@ -32,9 +32,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench import common  # noqa: E402
 from bench.projection import (YNET_ETHUCY, YNET_SDD, Count, StagePlan, count_keys,  # noqa: E402
                               paper, paper_stages, short_term_datasets, stage_hours, window_counts)
+from pipeline.benchmarks.ethucy import FOLDS  # noqa: E402
 from pipeline.config import (ShortTermModelsParams, ShortTermParams, YnetSettings,  # noqa: E402
                              load_section, read_params)
-from pipeline.runners.short_term import ynet_settings  # noqa: E402
 from ynet.heatmaps import padded_size  # noqa: E402
 
 GPUS = (1, 4, 8)
@@ -212,7 +212,7 @@ def map_pixels(data: Path, params: dict) -> tuple[float, float] | str:
     ynet = paper(YnetSettings, "ynet", params)
     short = paper(ShortTermModelsParams, "short_term_models", params)
     n_future = load_section(ShortTermParams, "short_term", params).n_future
-    ethucy_resize = ynet_settings(ynet, short, "eth", n_future, semantic_classes=1).resize
+    ethucy_resize = FOLDS["eth"].ynet_settings(ynet, short, n_future, semantic_classes=1).resize
     sdd_windows = train_windows_per_scene([sdd_table])
     scenes = json.loads(ethucy_index.read_text())["scenes"]
     ethucy_sizes = {scene: tuple(entry["image_hw"]) for scene, entry in scenes.items()}

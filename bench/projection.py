@@ -27,11 +27,11 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.bench_baselines import N_FUTURE, N_PAST  # noqa: E402
+from pipeline.benchmarks.registry import short_term  # noqa: E402
 from pipeline.config import (BaselineSeedsParams, HorizonParams, SegmentationParams,  # noqa: E402
                              ShortTermModelsParams, ShortTermParams, WindowParams, YnetSeedsParams,
                              YnetSettings, load_profile, load_section, read_params)
 from pipeline.harness import baselines  # noqa: E402
-from pipeline.runners.short_term import ynet_settings  # noqa: E402
 
 RELEASE_TABLE = "windows/release_tf30.parquet"
 LABEL_INDEX = "labels/index.json"
@@ -160,14 +160,15 @@ def paper_stages(params: dict, counts: dict[str, Count]) -> list[StagePlan]:
     windows = load_section(ShortTermParams, "short_term", params)
     runs, resize = {"sdd": [], "ethucy": []}, {}
     for dataset in short.ynet_datasets:
-        settings = ynet_settings(ynet, short, dataset, windows.n_future, semantic_classes=1)
-        resize["sdd" if dataset == "sdd" else "ethucy"] = settings.resize
+        benchmark = short_term(dataset)
+        settings = benchmark.ynet_settings(ynet, short, windows.n_future, semantic_classes=1)
+        resize[benchmark.settings_key] = settings.resize
         count, factor = counts[f"short_term_{dataset}"], settings.augmentations
         if settings.steps_per_epoch and count.value is not None:  # the first steps of each epoch
             count = Count(min(count.value * factor, settings.steps_per_epoch * settings.batch_size),
                           count.source)
             factor = 1
-        runs["sdd" if dataset == "sdd" else "ethucy"].append(_run(dataset, settings.epochs, count, factor))
+        runs[benchmark.settings_key].append(_run(dataset, settings.epochs, count, factor))
     stages += [
         StagePlan("train_short_term_ynet (sdd)", samples, YNET_SDD, runs["sdd"],
                   f"at the long-term model's rate (SDD maps at resize {resize.get('sdd')} against "
@@ -190,8 +191,8 @@ def paper_stages(params: dict, counts: dict[str, Count]) -> list[StagePlan]:
             StagePlan(f"train_baseline_seed ({name})", "train windows", key,
                       [replace(run, label=f"{run.label} seed {s}") for s in extra for run in long_term]),
             StagePlan(f"train_short_term_baseline ({name})", "train windows", key,
-                      [_run(d, short.epochs[name]["sdd" if d == "sdd" else "ethucy"],
-                            counts[f"short_term_{d}"]) for d in short_term_datasets(params)],
+                      [_run(d, short_term(d).epochs(short, name), counts[f"short_term_{d}"])
+                       for d in short_term_datasets(params)],
                       f"at the rate of {BASELINE_STEPS[0]} + {BASELINE_STEPS[1]}-step windows "
                       f"(these have {windows.n_past} + "
                       f"{windows.n_future})"),

@@ -11,18 +11,18 @@ import argparse
 from dataclasses import dataclass
 from pathlib import Path
 
-import pandas as pd
 import torch
 
 from bench.common import repro, require
+from pipeline.benchmarks.ethucy import EthUcyFold, load_ethucy_scenes
+from pipeline.benchmarks.registry import short_term
 from pipeline.runners.ynet_scoring import load_model
 from pipeline.config import (ShortTermModelsParams, ShortTermParams, YnetSettings, load_profile,
                              load_section, read_params)
 from pipeline.data.semantic_maps import load_semantic_maps
-from pipeline.data.short_term import load_ethucy_scenes
-from pipeline.runners.short_term import ETHUCY_SCENES, load_benchmark, sample_windows, table_path
+from pipeline.runners.short_term import sample_windows
 from pipeline.data.window_table import WindowArrays
-from pipeline.data.ynet_data import SceneWindows, group_by_scene, image_sizes
+from pipeline.data.ynet_data import SceneWindows, group_by_scene
 from ynet.model import YNet
 
 SDD_MAPS = Path("data/semantic_maps")
@@ -52,7 +52,7 @@ def load_from_arguments(args: argparse.Namespace, bench: str) -> TrainedOnValida
     """`load` as the options say; exits naming the `dvc repro` that makes what is missing."""
     checkpoint = args.checkpoint or Path(f"checkpoints/short_term/{args.dataset}_ynet/best.pt")
     needs = {checkpoint: repro(f"train_short_term_ynet@{args.dataset}"),
-             table_path(args.windows, args.dataset): repro("short_term_windows")}
+             short_term(args.dataset).table(args.windows): repro("short_term_windows")}
     if args.dataset == "sdd":
         needs.update({SDD_MAPS: repro("semantic_maps"), args.sdd: repro("fetch@sdd")})
     require(bench, needs)
@@ -64,17 +64,14 @@ def load(dataset: str, checkpoint: Path, windows: Path, sdd: Path, sample: int) 
     params = read_params()
     stage = load_profile(ShortTermModelsParams, "short_term_models", params)
     lengths = load_section(ShortTermParams, "short_term", params)
-    scenes_info = None if dataset == "sdd" else load_ethucy_scenes(windows / ETHUCY_SCENES)
-    bench = load_benchmark(pd.read_parquet(table_path(windows, dataset)), dataset,
-                           lengths.n_past, lengths.n_future, scenes_info)
+    benchmark = short_term(dataset)
+    fold = isinstance(benchmark, EthUcyFold)
+    scenes_info = load_ethucy_scenes(benchmark.maps(windows)) if fold else None
+    bench = benchmark.load(windows, lengths.n_past, lengths.n_future)
     val = sample_windows(bench.val, sample, stage.seed)
     model, settings = load_model(checkpoint)
     torch.set_num_threads(settings.threads)
-    if scenes_info is None:
-        maps = load_semantic_maps(SDD_MAPS)
-        sizes = image_sizes(sdd, set(val.scene_id))
-    else:
-        maps = load_semantic_maps(windows / ETHUCY_SCENES)
-        sizes = {name: info.image_hw for name, info in scenes_info.items()}
+    maps = load_semantic_maps(benchmark.maps(windows) if fold else SDD_MAPS)
+    sizes = benchmark.scene_sizes(windows, sdd, set(val.scene_id))
     return TrainedOnValidation(model, settings, stage, val,
                                group_by_scene(val, maps, sizes, settings.resize), scenes_info)

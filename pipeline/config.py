@@ -1370,9 +1370,6 @@ class ShortTermModelsParams:
         if min(self.eval_batch_size, self.eval_chunk_size, self.eval_threads) < 1:
             raise ValueError("eval_batch_size, eval_chunk_size and eval_threads must be positive")
 
-    def ks(self, dataset: str) -> list[int]:
-        return self.k_sdd if dataset == "sdd" else self.k_ethucy
-
     def eval_params(self) -> EvalParams:
         """What `evaluate_ynet.predict_scenes` reads (seeds are passed per round)."""
         return EvalParams(k_e=max(self.k_sdd + self.k_ethucy), k_a=1, rounds=self.rounds,

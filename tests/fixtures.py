@@ -59,7 +59,7 @@ def release_rows(scene_id: str, track: int, first_frame: int, track_start: int, 
 def write_maps_folder(folder: Path, maps: dict[str, np.ndarray], classes: list[str],
                       key: str = "videos", entries: dict[str, dict] | None = None) -> Path:
     """`maps.npz` (uint8 maps) and its `index.json`, as `pipeline.data.semantic_maps` (key
-    "videos") and `pipeline.data.short_term` (key "scenes", `entries` adding e.g. homographies)
+    "videos") and `pipeline.benchmarks.ethucy` (key "scenes", `entries` adding e.g. homographies)
     write them."""
     folder.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(folder / "maps.npz", **maps)

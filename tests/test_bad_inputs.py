@@ -22,6 +22,14 @@ import pandas as pd
 import pytest
 import yaml
 
+from pipeline.benchmarks import ind
+from pipeline.benchmarks.ethucy import (
+    MAP_CLASSES, SCENES, ethucy_fold_windows, load_ethucy_scenes, read_oracle, sgan_file_scene,
+    sgan_window_rows, write_ethucy_maps,
+)
+from pipeline.benchmarks.ind import IndError
+from pipeline.benchmarks.short_term import ShortTermInputError, read_rows
+from pipeline.benchmarks.trajnet_sdd import fixed_windows, read_sdd_ratios, sdd_trajnet_windows
 from pipeline.config import (
     AugmentParams, CompatParams, CwsParams, EvalParams, EvaluateBaselineParams, FetchParams, HorizonParams,
     IndBenchmarkParams, IndParams, LabelsParams, ParamsError, SegmentationParams, SemanticParams,
@@ -30,14 +38,7 @@ from pipeline.config import (
 )
 from pipeline.data.checksums import ChecksumError, read_manifest
 from pipeline.data.homography import HomographyError, read_homography
-from pipeline.data import ind
-from pipeline.data.ind import IndError
 from pipeline.data.labels import MaskError, find_masks, read_index, read_label_map
-from pipeline.data.short_term import (
-    MAP_CLASSES, SCENES, ShortTermInputError, ethucy_fold_windows, fixed_windows, load_ethucy_scenes,
-    read_oracle, read_rows, read_sdd_ratios, sdd_trajnet_windows, sgan_file_scene, sgan_window_rows,
-    write_ethucy_maps,
-)
 from pipeline.data.tracks import AnnotationError, build_tracks, parse_annotations
 from pipeline.data.window_table import conform, to_arrays
 from pipeline.data.semantic_maps import load_semantic_maps
@@ -868,11 +869,11 @@ def ind_out(tmp_path_factory) -> Path:
 def test_bad_ind_index_is_named(ind_out, tmp_path, change, message):
     shutil.copytree(ind_out, tmp_path / "ind")
     folder = tmp_path / "ind"
-    assert ind_benchmark.read_index(folder)["provided"] is True
+    assert ind.read_index(folder)["provided"] is True
     edit_json(folder / "index.json", change)
     with pytest.raises(IntermediateError, match=rf"^{esc(folder / 'index.json')}: "
                                                 + message.format(d=esc(folder))):
-        ind_benchmark.read_index(folder)
+        ind.read_index(folder)
 
 
 @pytest.mark.parametrize("arrays, message", [
@@ -884,7 +885,7 @@ def test_bad_ind_index_is_named(ind_out, tmp_path, change, message):
      r"ind_loc4_rec00: shape \(3, 4, 5\), expected \(6, any, any\)$"),
 ])
 def test_bad_ind_maps_are_named(ind_out, tmp_path, arrays, message):
-    index = ind_benchmark.read_index(ind_out)
+    index = ind.read_index(ind_out)
     path = tmp_path / ind_benchmark.MAPS
     path.parent.mkdir(parents=True)
     good = {name: np.full((6, 4, 5), 1 / 6, np.float32) for name in index["scenes"]}

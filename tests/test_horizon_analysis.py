@@ -10,10 +10,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.config import read_params
 from pipeline.data.window_table import conform, to_arrays
 from pipeline.harness import horizon_analysis as ha
-from pipeline.harness.predictions import (PredictionArrays, long_term_metadata, predictions_table,
+from pipeline.harness.predictions import (PredictionArrays, predictions_table,
                                           write_no_predictions, write_predictions)
 from pipeline.io import write_parquet
 from pipeline.report import horizons as report
@@ -218,29 +219,30 @@ def project(root: Path, ynet_at_2: str = "stored") -> dict[str, Path]:
     release = table_of([walker(i + 100, s, k, 0, v, N_PAST + 2, "test") for i, s, k, v in walkers],
                        "test", 2, "release")
     write_parquet(release, root / "release_tf2.parquet")
+    metadata = SDD_LONG_TERM.prediction_metadata  # (model, table): what the scoring stages write
     for t_f in (2, 4):
         table = root / "horizon_windows" / f"tf{t_f}.parquet"
         arrays = to_arrays(pd.read_parquet(table).query("split == 'test'"), N_PAST)
         exact = arrays.future[:, None]
         write_predictions(predictions_table(arrays.window_id, exact),
                           root / "predictions" / f"tf{t_f}" / "constant_velocity.parquet",
-                          {**long_term_metadata("constant_velocity", table), "seeds": [0]})
+                          {**metadata("constant_velocity", table), "seeds": [0]})
         if t_f == 4:
             off = exact + [0.0, 3.0]  # 3 px off at every step, goal exact
             write_predictions(predictions_table(arrays.window_id, off, goals=arrays.future[:, None, -1]),
                               root / "predictions" / "tf4" / "ynet.parquet",
-                              {**long_term_metadata("ynet", table), "seeds": [0]})
+                              {**metadata("ynet", table), "seeds": [0]})
         elif ynet_at_2 == "stored":
             write_predictions(predictions_table(arrays.window_id, exact),
                               root / "predictions" / "tf2" / "ynet.parquet",
-                              {**long_term_metadata("ynet", table), "seeds": [0]})
+                              {**metadata("ynet", table), "seeds": [0]})
         else:
             write_no_predictions(root / "predictions" / "tf2" / "ynet.parquet",
-                                 long_term_metadata("ynet", table), "not trained at 2 s")
+                                 metadata("ynet", table), "not trained at 2 s")
     arrays = to_arrays(release.query("split == 'test'"), N_PAST)
     write_predictions(predictions_table(arrays.window_id, arrays.future[:, None] + [4.0, 0.0]),
                       root / "predictions" / "release_tf2" / "ynet.parquet",
-                      {**long_term_metadata("ynet", root / "release_tf2.parquet"), "seeds": [0]})
+                      {**metadata("ynet", root / "release_tf2.parquet"), "seeds": [0]})
     return {"release": root / "release_tf2.parquet"}
 
 

@@ -27,7 +27,7 @@ STAGES = "pipeline.stages"
 # The floors, lowest first: (floor, its modules, the floors it may import besides its own). A name
 # ending in ".*" stands for everything inside that package; `pipeline` is the package's own
 # __init__.py (no code), which Python runs before any module of it.
-BELOW_MODELS = ("ynet", "facts", "config", "foundation", "data")
+BELOW_MODELS = ("ynet", "facts", "config", "foundation", "data", "benchmarks")
 FLOORS = (
     ("ynet", ("ynet", "ynet.*"), ()),
     ("facts", ("pipeline", "pipeline.splits", "pipeline.model_list"), ()),
@@ -35,6 +35,8 @@ FLOORS = (
     ("foundation", ("pipeline.io", "pipeline.device", "pipeline.preemption", "pipeline.checkpoints",
                     "pipeline.slot_scoring", "pipeline.code_graph"), ("facts", "config")),
     ("data", ("pipeline.data", "pipeline.data.*"), ("ynet", "facts", "config", "foundation")),
+    ("benchmarks", ("pipeline.benchmarks", "pipeline.benchmarks.*"),
+     ("ynet", "facts", "config", "foundation", "data")),
     ("models", ("pipeline.models", "pipeline.models.*"), BELOW_MODELS),
     ("harness", ("pipeline.harness", "pipeline.harness.*"), (*BELOW_MODELS, "models")),
     ("runners", ("pipeline.runners", "pipeline.runners.*"), (*BELOW_MODELS, "models", "harness")),

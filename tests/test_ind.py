@@ -27,10 +27,10 @@ import pytest
 import torch
 import yaml
 
-from pipeline.data import ind
+from pipeline.benchmarks import ind
 from pipeline.runners import ind as ind_benchmark
 from pipeline.stages import ind_windows
-from pipeline.data.ind import IndError
+from pipeline.benchmarks.ind import IndError
 from pipeline.runners.ind import BenchmarkSettings
 from pipeline.data.labels import MaskError
 from pipeline.config import (CwsParams, DataParams, EvalParams, EvaluateBaselineParams,

@@ -20,6 +20,7 @@ import pandas as pd
 import pytest
 import yaml
 
+from pipeline.benchmarks.ind import IND
 from pipeline.config import ParamsError, read_params
 from pipeline.data.window_table import conform, load_windows
 from pipeline.harness.model_runs import FIT_FACTS, fit_to_workdir, predict_to_files
@@ -28,7 +29,6 @@ from pipeline.io import write_parquet
 from pipeline.models import (ModelEntry, WindowSet, check_predictions, load_model, load_models,
                              model_file, window_set)
 from pipeline.models.constant_velocity import extrapolate
-from pipeline.runners.ind import prediction_metadata as ind_prediction_metadata
 from ynet.segmentation import CLASS_NAMES
 
 REPO = Path(__file__).resolve().parents[1]
@@ -414,7 +414,7 @@ def test_a_toy_model_registered_in_a_copy_of_the_repo_reaches_the_report(tmp_pat
     for rel in ("metrics/baseline_seed_spread.json", "metrics/beyond/short_term.json"):
         (repo / rel).parent.mkdir(parents=True, exist_ok=True)
         (repo / rel).write_text("{}\n")
-    write_no_predictions(repo / "data/predictions/ind/ynet.parquet", ind_prediction_metadata("ynet"),
+    write_no_predictions(repo / "data/predictions/ind/ynet.parquet", IND.prediction_metadata("ynet"),
                          "inD not provided")  # as evaluate_ind writes it without inD
 
     stages = ["code_fingerprints", "fit_model@mean_speed-30", "predict_model@mean_speed-30", "ind_windows",

@@ -21,7 +21,7 @@ from pipeline.models.constant_velocity import extrapolate
 from pipeline.harness.baselines.pecnet import Pecnet, make_batch
 from pipeline.harness.baselines.rpecnet import (INDEPENDENT, MEAN_FED_BACK, ORIGINAL_FRAME,
                                                 SHARED_LATENT, VARIANTS, RecurrentPecnet, rollout)
-from pipeline.data.window_table import load_windows
+from pipeline.data.window_table import load_windows, select_split
 from pipeline.device import to_device
 from pipeline.stages import rpecnet_rollouts as stage
 from tests.test_baselines import N_PAST, TINY_PECNET, straight_tracks, window_table
@@ -264,7 +264,7 @@ def test_stage_chooses_on_validation_and_scores_only_the_chosen_on_test(tmp_path
     assert tf7["test"]["variant"] == tf7["chosen"] and tf7["test"]["n_windows"] == 3
     # The validation scores are those of the roll-out on the val windows, seed 0.
     model = RecurrentPecnet.load(tmp_path / "pecnet_tf3")
-    val = common.select_split(load_windows(tmp_path / "hw" / "tf7.parquet", N_PAST, 7), "val")
+    val = select_split(load_windows(tmp_path / "hw" / "tf7.parquet", N_PAST, 7), "val")
     again = rr.best_of_k_scores(model.predict(val, 3, generator(0), variant=MEAN_FED_BACK),
                                 val.future)
     assert {k: choice["variants"][MEAN_FED_BACK][k] for k in again} == again

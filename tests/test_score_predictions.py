@@ -27,9 +27,9 @@ import pandas as pd
 import pytest
 import yaml
 
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.data.window_table import conform
-from pipeline.harness.predictions import (long_term_benchmark, predictions_table,
-                                          write_no_predictions, write_predictions)
+from pipeline.harness.predictions import predictions_table, write_no_predictions, write_predictions
 from pipeline.io import write_parquet
 from pipeline.stages import score_predictions
 from ynet.segmentation import CLASS_NAMES
@@ -97,7 +97,8 @@ def goal_model(ids: np.ndarray = IDS) -> pd.DataFrame:
 
 
 def metadata(model: str, table: Path, seeds: list[int]) -> dict:
-    return {"model": model, "benchmark": long_term_benchmark(table), "unit": "px", "seeds": seeds}
+    return {"model": model, "benchmark": SDD_LONG_TERM.prediction_benchmark(table), "unit": "px",
+            "seeds": seeds}
 
 
 @pytest.fixture

@@ -1,8 +1,8 @@
 """Stage `score_short_term_predictions` on a fixture small enough to check by hand, written with the
-writers the real stages use: window tables numbered by `pipeline.data.short_term.number_windows`,
-ETH/UCY maps by `write_ethucy_maps`, predictions scored and kept by
-`pipeline.runners.short_term.score` (what evaluate_short_term_* run) and written with their
-`prediction_metadata`. n_past = n_future = 2.
+writers the real stages use: window tables numbered by
+`pipeline.benchmarks.short_term.number_windows`, ETH/UCY maps by `write_ethucy_maps`, predictions
+scored and kept by `pipeline.runners.short_term.score` (what evaluate_short_term_* run) and
+written with their benchmark's `prediction_metadata`. n_past = n_future = 2.
 
 TrajNet SDD: the windows of tests/test_score_predictions.py (gates_2 at 0.1 m per pixel, hyang_0 at
 0.05, the same hand labels), test split, plus a train and a val window.
@@ -29,12 +29,15 @@ import pandas as pd
 import pytest
 import yaml
 
+from pipeline.benchmarks.base import WindowTruth
+from pipeline.benchmarks.ethucy import SCENES, road_masks, write_ethucy_maps
+from pipeline.benchmarks.ind import IND
+from pipeline.benchmarks.registry import short_term
+from pipeline.benchmarks.short_term import number_windows
 from pipeline.config import DATASETS
-from pipeline.data.short_term import SCENES, number_windows, write_ethucy_maps
-from pipeline.harness import stored_scores, stored_short_term
+from pipeline.harness import stored_scores
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
-from pipeline.harness.stored_short_term import road_masks
-from pipeline.runners import ind as ind_runner
+from pipeline.harness.stored_scores import forbidden_shares
 from pipeline.runners import short_term as runner
 from pipeline.stages import score_short_term_predictions
 from tests.test_score_predictions import (FUTURE, ORDER, SCENE, TRACK, TRIANGLE, TRIANGLE_NLL,
@@ -143,17 +146,17 @@ def project(tmp_path: Path) -> tuple[Path, dict]:
                               "log_pdf_floor": -20.0, "forbidden_classes": ["structure", "tree"]}}))
     runs: dict = {}
     for dataset, model in (("sdd", "sgan"), ("zara1", "sgan")):
-        bench, _ = runner.load_dataset(windows, dataset, N_PAST, 2)
+        bench = short_term(dataset).load(windows, N_PAST, 2)
         kept = PredictionRounds(bench.test.window_id)
         sample = sdd_sampler(bench.test.window_id) if dataset == "sdd" else zara_sampler
         runs.setdefault(dataset, {})[model] = runner.score(sample, bench, 2, 0, kept)
         kept.write(predictions / dataset / f"{model}.parquet",
-                   runner.prediction_metadata(windows, dataset, model, [3]))
+                   short_term(dataset).prediction_metadata(windows, model, [3]))
     for dataset in DATASETS:
         for model in ("ynet", "sgan", "pecnet"):
             path = predictions / dataset / f"{model}.parquet"
             if not path.exists():
-                write_no_predictions(path, runner.prediction_metadata(windows, dataset, model),
+                write_no_predictions(path, short_term(dataset).prediction_metadata(windows, model),
                                      f"{model} is not run on {dataset} here")
     return tmp_path, runs
 
@@ -242,7 +245,7 @@ def test_sgan_sequence_metrics_take_one_sample_per_sequence(project):
         north = np.array(offsets)[:, :, None, None] * [0.0, 1.0]  # (N, K, 1, 2)
         kept.add(seed, truth[:, None] + north)
     kept.write(root / "predictions" / "zara1" / "pecnet.parquet",
-               runner.prediction_metadata(root / "short_term", "zara1", "pecnet", [2]))
+               short_term("zara1").prediction_metadata(root / "short_term", "pecnet", [2]))
     zara = run(root)["benchmarks"]["zara1"]["models"]
     got = zara["pecnet"]
     for name in ("ade", "fde"):
@@ -275,11 +278,11 @@ def test_road_masks_follow_the_homography_and_its_swap(project):
     masks = road_masks(root / "short_term" / "ethucy_semantic")
     metres = np.array([[[1.0, 4.0]], [[4.0, 1.0]]])  # (2 windows, 1 position, 2)
     # zara1: metres (x, y) -> pixels (2x, 2y): (2, 8) road, (8, 2) not road.
-    assert masks.share(metres, np.array(["zara1", "zara1"])).tolist() == [0.0, 1.0]
+    assert forbidden_shares(masks, metres, np.array(["zara1", "zara1"])).tolist() == [0.0, 1.0]
     # eth swaps: H takes (row, column), so metres (x, y) -> pixels (2y, 2x): the other way round.
-    assert masks.share(metres, np.array(["eth", "eth"])).tolist() == [1.0, 0.0]
+    assert forbidden_shares(masks, metres, np.array(["eth", "eth"])).tolist() == [1.0, 0.0]
     # A scene without a map has no share.
-    assert np.isnan(masks.share(metres[:1], np.array(["hotel"]))).all()
+    assert np.isnan(forbidden_shares(masks, metres[:1], np.array(["hotel"]))).all()
 
 
 BAD = {  # what is wrong -> (window ids in metres, metadata changes, message)
@@ -302,8 +305,8 @@ def test_a_file_that_does_not_fit_its_benchmark_is_named(project, case):
     kept = PredictionRounds(np.array(ids))
     kept.add(0, np.zeros((2, 3, 2, 2)))
     path = root / "predictions" / "zara1" / "pecnet.parquet"
-    kept.write(path, {**runner.prediction_metadata(root / "short_term", "zara1", "pecnet", [3]),
-                      **changes})
+    metadata = short_term("zara1").prediction_metadata(root / "short_term", "pecnet", [3])
+    kept.write(path, {**metadata, **changes})
     with pytest.raises(SystemExit, match=rf"score_short_term_predictions: "
                                          rf"{re.escape(str(path))}: {message}"):
         run(root)
@@ -311,11 +314,22 @@ def test_a_file_that_does_not_fit_its_benchmark_is_named(project, case):
 
 def test_names_and_tables_agree_with_the_writers(tmp_path):
     for dataset in DATASETS:
-        table = stored_short_term.table_path(tmp_path, dataset)
-        assert table == runner.table_path(tmp_path, dataset)
-        assert stored_short_term.benchmark_name(table) \
-            == runner.prediction_metadata(tmp_path, dataset, "sgan")["benchmark"]
-    assert stored_scores.IND_BENCHMARK == ind_runner.IND_BENCHMARK
+        benchmark = short_term(dataset)
+        stem = "sdd_trajnet" if dataset == "sdd" else f"ethucy_{dataset}"
+        table = benchmark.table(tmp_path)
+        assert table == tmp_path / f"{stem}.parquet"
+        assert benchmark.prediction_benchmark() == f"short_term_{stem}"
+        metadata = benchmark.prediction_metadata(tmp_path, "sgan")
+        assert (metadata["benchmark"], metadata["window_table"]) \
+            == (f"short_term_{stem}", str(table))
+        scored = (benchmark.scored_table(tmp_path, N_PAST, None) if dataset != "sdd" else
+                  benchmark.scored_table(tmp_path, N_PAST, None, {}, tmp_path / "scales.yaml"))
+        assert (scored.name, scored.table, scored.unit, list(scored.truth_columns)) \
+            == (metadata["benchmark"], table, metadata["unit"], metadata["truth_columns"])
+    assert short_term("zara1").table(tmp_path).name == "ethucy_zara1.parquet"
+    assert short_term("zara1").prediction_benchmark() == "short_term_ethucy_zara1"
+    assert IND.prediction_benchmark == "ind_long_term"
+    assert IND.prediction_metadata("ynet")["benchmark"] == "ind_long_term"
 
 
 def test_ethucy_collisions_pair_only_windows_that_start_together():
@@ -324,10 +338,9 @@ def test_ethucy_collisions_pair_only_windows_that_start_together():
     sequence (ETH/UCY): window 2 has no partner, 0 and 1 stay apart."""
     future = np.array([[[0.0, 0.0], [1.0, 0.0]], [[5.0, 0.0], [5.0, 0.0]],
                        [[1.1, 0.0], [2.0, 0.0]]])
-    truth = stored_scores.WindowTruth(Path("t.parquet"), np.arange(3), future,
-                                      np.array([[20, 30], [20, 30], [30, 40]]),
-                                      np.array([0, 0, 10]), np.array(["zara1"] * 3),
-                                      np.array([1, 2, 2]), 2)
+    truth = WindowTruth(Path("t.parquet"), np.arange(3), future,
+                        np.array([[20, 30], [20, 30], [30, 40]]), np.array([0, 0, 10]),
+                        np.array(["zara1"] * 3), np.array([1, 2, 2]), 2)
     samples = future[:, None]  # K = 1: the truth itself
     for same_start, hits, copresent in ((False, [1.0, 0.0, 1.0], [True, True, True]),
                                         (True, [0.0, 0.0, 0.0], [True, True, False])):

@@ -11,12 +11,14 @@ import pytest
 from scipy import linalg
 from scipy.stats import gaussian_kde
 
+from pipeline.benchmarks.base import class_values
+from pipeline.benchmarks.ethucy import sgan_window_rows
+from pipeline.benchmarks.short_term import read_rows
 from pipeline.config import ShortTermParams
-from pipeline.data.short_term import read_rows, sgan_window_rows
 from pipeline.harness import scoring
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.scoring import (ALLOWED, FORBIDDEN, OUTSIDE, ade_sgan_sequence, aggregate,
-                                      best_endpoint_ade, class_values, collisions,
+                                      best_endpoint_ade, collisions,
                                       fde_sgan_sequence, forbidden_share, kde_log_pdf, kde_nll,
                                       mask_pixels, min_ade_fde, miss, one_sample_ade_fde,
                                       per_scene_means, scene_compliance, sequence_joint_min,

@@ -16,12 +16,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from pipeline.benchmarks.ethucy import (MAP_CLASSES, SCENES, load_ethucy_scenes, read_oracle,
+                                        sgan_window_rows)
+from pipeline.benchmarks.short_term import ShortTermInputError, read_rows
+from pipeline.benchmarks.short_term_windows import build
+from pipeline.benchmarks.trajnet_sdd import fixed_windows, read_sdd_ratios
 from pipeline.data.checksums import load_verified_pickle, read_manifest
 from pipeline.data.homography import HomographyError, metres_to_pixels, pixels_to_metres, read_homography
 from pipeline.config import ShortTermParams, load_section, read_params
 from pipeline.data.semantic_maps import load_semantic_maps
-from pipeline.data.short_term import FOLD_TEST_SCENES, MAP_CLASSES, SCENES, ShortTermInputError, build, fixed_windows, load_ethucy_scenes, read_oracle, read_rows, read_sdd_ratios, sgan_window_rows
 from pipeline.data.window_table import COLUMNS, to_arrays
+from pipeline.splits import FOLD_TEST_SCENES
 
 REPO = Path(__file__).resolve().parents[1]
 MIRROR = REPO.parent / "shared" / "data"

@@ -16,11 +16,10 @@ import pandas as pd
 import pytest
 import torch
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import PecnetConfig, SganConfig, read_params
-from pipeline.data.window_table import to_arrays
-from pipeline.runners.short_term import select_split
-from pipeline.runners.short_term_baselines import (baseline_config, benchmark_in_unit, load_in_unit,
-                                                   overrides)
+from pipeline.data.window_table import select_split, to_arrays
+from pipeline.runners.short_term_baselines import baseline_config, overrides
 from tests.test_short_term_models import N_FUTURE, N_PAST, project  # noqa: F401 (fixture)
 
 REPO = Path(__file__).resolve().parents[1]
@@ -29,7 +28,7 @@ REPO = Path(__file__).resolve().parents[1]
 def test_ethucy_windows_are_the_tables_metres_in_every_split(project):  # noqa: F811
     windows = project / "data" / "short_term"
     table = pd.read_parquet(windows / "ethucy_eth.parquet")
-    bench = load_in_unit(windows, "eth", N_PAST, N_FUTURE)
+    bench = short_term("eth").load_in_unit(windows, N_PAST, N_FUTURE)
     metres = to_arrays(table.assign(x=table["x_m"], y=table["y_m"]), N_PAST)
     pixels = to_arrays(table, N_PAST)
     assert bench.unit == "m"
@@ -48,7 +47,7 @@ def test_ethucy_windows_are_the_tables_metres_in_every_split(project):  # noqa: 
 def test_sdd_windows_stay_in_pixels(project):  # noqa: F811
     windows = project / "data" / "short_term"
     table = pd.read_parquet(windows / "sdd_trajnet.parquet")
-    bench = load_in_unit(windows, "sdd", N_PAST, N_FUTURE)
+    bench = short_term("sdd").load_in_unit(windows, N_PAST, N_FUTURE)
     assert bench.unit == "px"
     np.testing.assert_array_equal(bench.train.past, select_split(to_arrays(table, N_PAST), "train").past)
 
@@ -56,7 +55,7 @@ def test_sdd_windows_stay_in_pixels(project):  # noqa: F811
 def test_a_table_without_metres_is_refused():
     table = pd.DataFrame({"window_id": [0], "x": [1.0], "y": [2.0]})
     with pytest.raises(ValueError, match="eth: the window table has no metre columns"):
-        benchmark_in_unit(table, "eth", N_PAST, N_FUTURE)
+        short_term("eth").splits_in_unit(table, N_PAST, N_FUTURE)
 
 
 @pytest.mark.parametrize("dataset, model, unit", [("eth", "pecnet", "m"), ("eth", "sgan", "m"),

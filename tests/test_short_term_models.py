@@ -1,9 +1,10 @@
 """Short-term stages on tiny synthetic benchmarks: Y-net / S-GAN / PECNet train, score and write the
 run layout; ETH/UCY errors come back in metres; the merged files fill the report's Tables 1 and 2.
 
-Fixtures are written here in the stages' formats: window tables (`pipeline.data.window_table` schema plus
-x_m, y_m), the ETH/UCY scene folder (`maps.npz` + `index.json`, as `pipeline.data.short_term` writes it),
-SDD maps and reference images, and a params.yaml with tiny settings.
+Fixtures are written here in the stages' formats: window tables (`pipeline.data.window_table`
+schema plus x_m, y_m), the ETH/UCY scene folder (`maps.npz` + `index.json`, as
+`pipeline.benchmarks.ethucy` writes it), SDD maps and reference images, and a params.yaml with tiny
+settings.
 """
 
 from __future__ import annotations
@@ -20,6 +21,9 @@ import pytest
 import torch
 import yaml
 
+from pipeline.benchmarks.ethucy import (MAP_CLASSES, EthUcySceneInfo, ethucy_scene_image,
+                                        load_ethucy_scenes, splits_in_metres, to_metres)
+from pipeline.benchmarks.registry import short_term
 from pipeline.report.figures import load_qualitative
 from pipeline.report.lookups import load_metrics
 from pipeline.report.tables import table_eth_ucy, table_sdd_short
@@ -33,13 +37,10 @@ from pipeline.config import (DATASETS, CwsParams, EvalParams, ReportParams, Shor
                              TtstParams, YnetSettings, YnetTraining, YnetTrainingByBenchmark,
                              load_profile, read_params)
 from pipeline.data.semantic_maps import quantise
-from pipeline.data.short_term import (MAP_CLASSES, EthUcySceneInfo, ethucy_scene_image,
-                                      load_ethucy_scenes)
 from pipeline.data.window_table import to_arrays
 from pipeline.data.ynet_data import window_inputs
-from pipeline.harness.baselines.common import subset
-from pipeline.runners.short_term import (load_benchmark, load_dataset, qualitative_rows, table_path,
-                                         to_metres, ynet_inputs, ynet_options, ynet_settings)
+from pipeline.data.window_table import subset
+from pipeline.runners.short_term import qualitative_rows, ynet_maps, ynet_options
 from pipeline.runners.ynet_scoring import (in_scene_frame, load_for_scoring, predict_scenes,
                                            qualitative, sampling_options)
 from pipeline.stages import (evaluate_short_term_baseline, evaluate_short_term_ynet,
@@ -240,7 +241,8 @@ def test_ynet_training_overrides_the_long_term_models_only_where_set():
                                          (YnetTraining(batch_size=16, bf16=True), 3e-4, 16, 1.0),
                                          (YnetTraining(trajectory_lr_scale=3.0), 3e-4, 2, 3.0)):
         by_benchmark = YnetTrainingByBenchmark(sdd=YnetTraining(), ethucy=training)
-        settings = ynet_settings(base, replace(short, ynet_training=by_benchmark), "eth", N_FUTURE, 3)
+        settings = short_term("eth").ynet_settings(base, replace(short, ynet_training=by_benchmark),
+                                                   N_FUTURE, 3)
         assert (settings.learning_rate, settings.batch_size) == (rate, batch)
         assert settings.trajectory_lr_scale == scale
         assert settings.bf16 == training.bf16 and settings.waypoints == [N_FUTURE - 1]
@@ -262,10 +264,10 @@ def test_ynet_training_departs_per_benchmark():
     by_benchmark = YnetTrainingByBenchmark(sdd=YnetTraining(learning_rate=5e-4, trajectory_lr_scale=2.0),
                                            ethucy=YnetTraining(learning_rate=1e-3))
     split = replace(short, ynet_training=by_benchmark)
-    sdd = ynet_settings(base, split, "sdd", N_FUTURE, 3)
+    sdd = short_term("sdd").ynet_settings(base, split, N_FUTURE, 3)
     assert (sdd.learning_rate, sdd.trajectory_lr_scale) == (5e-4, 2.0)
     for fold in ("eth", "hotel", "univ", "zara1", "zara2"):
-        settings = ynet_settings(base, split, fold, N_FUTURE, 3)
+        settings = short_term(fold).ynet_settings(base, split, N_FUTURE, 3)
         assert (settings.learning_rate, settings.trajectory_lr_scale) == (1e-3, 1.0)
     with pytest.raises(ValueError, match="unknown benchmark 'kitti'"):
         by_benchmark.of("kitti")
@@ -277,9 +279,9 @@ def test_ttst_threshold_is_the_benchmarks():
     params = read_params(REPO / "params.yaml")
     short = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "cpu"})
     split = replace(short, rel_threshold={"sdd": 0.01, "ethucy": 0.0005})
-    assert ynet_options(split, "sdd", 20).rel_threshold == 0.01
+    assert ynet_options(split, short_term("sdd"), 20).rel_threshold == 0.01
     for fold in ("eth", "hotel", "univ", "zara1", "zara2"):
-        options = ynet_options(split, fold, 20)
+        options = ynet_options(split, short_term(fold), 20)
         assert (options.rel_threshold, options.K_e, options.K_a) == (0.0005, 20, 1)
         assert options.use_ttst and not options.use_cws
     paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})
@@ -355,7 +357,7 @@ def fold_benchmark(tmp_path: Path):
     write_ethucy(tmp_path)
     table = pd.read_parquet(tmp_path / "ethucy_eth.parquet")
     scenes = load_ethucy_scenes(tmp_path / "ethucy_semantic")
-    return load_benchmark(table, "eth", N_PAST, N_FUTURE, scenes)
+    return splits_in_metres(table, "eth", N_PAST, N_FUTURE, scenes)
 
 
 def test_a_perfect_pixel_prediction_is_zero_metres_off(tmp_path):
@@ -393,7 +395,7 @@ def test_tables_and_homographies_that_disagree_fail(tmp_path):
     scenes = load_ethucy_scenes(tmp_path / "ethucy_semantic")
     scenes["eth"] = EthUcySceneInfo(IMAGE_HW, scenes["eth"].homography, swap=False)  # wrong flag
     with pytest.raises(ValueError, match="disagree"):
-        load_benchmark(table, "eth", N_PAST, N_FUTURE, scenes)
+        splits_in_metres(table, "eth", N_PAST, N_FUTURE, scenes)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -459,7 +461,7 @@ def test_the_qualitative_windows_have_the_long_term_layout(project, dataset, cro
         dtype, ndim = QUALITATIVE[name.rsplit("_", 1)[0]]
         assert value.dtype.type == dtype and value.ndim == ndim, name
     windows = project / "data" / "short_term"
-    table = pd.read_parquet(table_path(windows, dataset))
+    table = pd.read_parquet(short_term(dataset).table(windows))
     test = to_arrays(table[table["split"] == "test"], N_PAST)
     height, width = (round(side * 0.25) for side in IMAGE_HW)  # the maps' resize
     for i, row in enumerate(qualitative_rows(test)):
@@ -481,15 +483,17 @@ def test_the_qualitative_windows_have_the_long_term_layout(project, dataset, cro
 def test_an_index_listing_no_maps_is_named(tmp_path):
     write_maps(tmp_path / "maps", [], CLASS_NAMES)
     with pytest.raises(IntermediateError, match="maps: the index lists no maps"):
-        ynet_inputs(tmp_path / "maps", None, set(), {})
+        ynet_maps(tmp_path / "maps")
 
 
 def test_scoring_runs_on_the_scoring_params_threads_not_the_trainings(project):
     """A model trained on one thread (beside another training) is scored on the threads the
     scoring params give (`eval_threads`: alone on every core)."""
     windows = project / "data" / "short_term"
-    bench, scenes_info = load_dataset(windows, "eth", N_PAST, N_FUTURE)
-    maps, sizes, _ = ynet_inputs(windows / "ethucy_semantic", None, {"eth"}, scenes_info)
+    benchmark = short_term("eth")
+    bench = benchmark.load(windows, N_PAST, N_FUTURE)
+    maps, _ = ynet_maps(benchmark.maps(windows))
+    sizes = benchmark.scene_sizes(windows, None, {"eth"})
     try:
         _, loaded, _ = load_for_scoring(project / "checkpoints" / "eth_ynet" / "best.pt",
                                         bench.test, maps, sizes, threads=2)
@@ -503,8 +507,10 @@ def test_a_cropped_qualitative_window_lies_where_scoring_puts_it(project):
     (same seed, one window, one batch) in pixels of the resized map."""
     torch.set_num_threads(1)
     windows = project / "data" / "short_term"
-    bench, scenes_info = load_dataset(windows, "eth", N_PAST, N_FUTURE)
-    maps, sizes, _ = ynet_inputs(windows / "ethucy_semantic", None, {"eth"}, scenes_info)
+    benchmark = short_term("eth")
+    bench = benchmark.load(windows, N_PAST, N_FUTURE)
+    maps, _ = ynet_maps(benchmark.maps(windows))
+    sizes = benchmark.scene_sizes(windows, None, {"eth"})
     model, loaded, scenes = load_for_scoring(project / "checkpoints" / "eth_ynet" / "best.pt",
                                              bench.test, maps, sizes, threads=1)
     assert loaded.crop == 32

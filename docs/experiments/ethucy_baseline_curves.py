@@ -19,11 +19,12 @@ from pathlib import Path
 
 import torch
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import (ShortTermModelsParams, ShortTermParams, TrainBaselineParams,
                              load_profile, load_section, read_params)
 from pipeline.harness.baselines.common import fit_result_from
 from pipeline.runners.short_term import train_baseline
-from pipeline.runners.short_term_baselines import baseline_config, load_in_unit
+from pipeline.runners.short_term_baselines import baseline_config
 
 
 def main() -> None:
@@ -44,7 +45,7 @@ def main() -> None:
     seeds = load_section(TrainBaselineParams, "train_baseline", params)
     curves = {}
     for fold in args.folds:
-        bench = load_in_unit(args.windows, fold, windows.n_past, windows.n_future)
+        bench = short_term(fold).load_in_unit(args.windows, windows.n_past, windows.n_future)
         config = baseline_config(args.model, fold, params, args.epochs)
         for item in args.set:
             key, value = item.split("=", 1)

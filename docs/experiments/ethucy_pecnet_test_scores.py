@@ -9,7 +9,7 @@ best endpoint, min FDE), in metres.
 
 `--checkpoints ROOT` scores `ROOT/<fold>_pecnet` as the stage `evaluate_short_term_baseline`
 does (`pipeline.runners.short_term.score_baseline`: the `raw` best epoch, the metre windows of
-`load_in_unit`, `short_term_models.<profile>`'s `k_ethucy`, `rounds` and `seed`,
+`ShortTermBenchmark.load_in_unit`, `short_term_models.<profile>`'s `k_ethucy`, `rounds` and `seed`,
 `train_baseline.threads`); `--stored ROOT` re-scores the stage's stored predictions
 `ROOT/<fold>/pecnet.parquet` instead (no model runs), which checks this script against the
 stage's own numbers. Nothing is chosen here: run it once, on checkpoints chosen on validation.
@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import (ShortTermModelsParams, ShortTermParams, TrainBaselineParams,
                              load_profile, load_section, read_params)
 from pipeline.harness.baselines.common import BEST, load_checkpoint
@@ -31,7 +32,6 @@ from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import PredictionRounds, read_prediction_rounds
 from pipeline.harness.scoring import best_endpoint_ade
 from pipeline.runners.short_term import score_baseline
-from pipeline.runners.short_term_baselines import load_in_unit
 
 FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
 
@@ -64,8 +64,9 @@ def main() -> None:
     torch.set_num_threads(load_section(TrainBaselineParams, "train_baseline", params).threads)
     scores = {}
     for fold in args.folds:
-        bench = load_in_unit(args.windows, fold, windows.n_past, windows.n_future)
-        k = settings.ks(fold)[0]
+        benchmark = short_term(fold)
+        bench = benchmark.load_in_unit(args.windows, windows.n_past, windows.n_future)
+        k = benchmark.ks(settings)[0]
         if args.checkpoints is not None:
             folder = args.checkpoints / f"{fold}_pecnet"
             kept = PredictionRounds(bench.test.window_id)

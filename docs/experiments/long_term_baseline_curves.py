@@ -44,13 +44,13 @@ import torch
 from pipeline import checkpoints
 from pipeline.config import (RuntimeParams, TrainBaselineParams, WindowParams, load_section,
                              read_params)
-from pipeline.data.window_table import load_windows
+from pipeline.data.window_table import load_windows, select_split
 from pipeline.device import generator as seeded_generator
 from pipeline.device import TRAINING, select_device
 from pipeline.harness import baselines, epoch_selection
 from pipeline.harness.baselines import common
 from pipeline.harness.baseline_runs import model_config, train
-from pipeline.harness.baselines.common import fit_result_from, load_checkpoint, select_split
+from pipeline.harness.baselines.common import fit_result_from, load_checkpoint
 from pipeline.harness.metrics import window_errors
 from pipeline.io import write_json
 

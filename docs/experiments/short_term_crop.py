@@ -23,6 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
 
 from bench import short_term_validation  # noqa: E402
+from pipeline.benchmarks.registry import short_term  # noqa: E402
 from pipeline.runners.short_term import ynet_options  # noqa: E402
 from pipeline.runners.ynet_scoring import predict_scenes  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402
@@ -46,7 +47,7 @@ def main() -> None:
     trained = short_term_validation.load_from_arguments(args, "short_term_crop")
     model, loaded, settings, val, scenes = (trained.model, trained.settings, trained.stage,
                                             trained.val, trained.scenes)
-    options = ynet_options(settings, args.dataset, args.k)  # as evaluate_short_term_ynet samples
+    options = ynet_options(settings, short_term(args.dataset), args.k)  # as the stage samples
     eval_params = settings.eval_params()  # batch, chunk and bf16 as the stage scores
     print(f"{args.dataset}: {len(val)} val windows, K_e = {args.k}, resize {loaded.resize:.4f}, "
           f"trained on crop {loaded.crop}, lead {loaded.crop_lead_steps} steps, load average "

@@ -28,10 +28,11 @@ from torch.optim.optimizer import register_optimizer_step_pre_hook
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 from rerun_plan import parse_override  # noqa: E402  (tools/: `-S key=value` as dvc exp run)
 
+from pipeline.benchmarks.ethucy import EthUcyFold  # noqa: E402
+from pipeline.benchmarks.registry import short_term  # noqa: E402
 from pipeline.config import (ShortTermModelsParams, ShortTermParams, YnetSettings,  # noqa: E402
                              load_profile, load_section, read_params)
-from pipeline.runners.short_term import (ETHUCY_SCENES, load_dataset, train_ynet,  # noqa: E402
-                                         ynet_inputs, ynet_settings)
+from pipeline.runners.short_term import train_ynet, ynet_maps  # noqa: E402
 
 
 def norm_percentiles(norms: np.ndarray, block: int) -> list[dict[str, float]]:
@@ -64,12 +65,15 @@ def main() -> None:
     params = read_params()
     stage = load_profile(ShortTermModelsParams, "short_term_models", params)
     lengths = load_section(ShortTermParams, "short_term", params)
-    bench, ethucy_scenes = load_dataset(args.windows, args.dataset, lengths.n_past, lengths.n_future)
-    maps_path = Path("data/semantic_maps") if ethucy_scenes is None else args.windows / ETHUCY_SCENES
+    benchmark = short_term(args.dataset)
+    bench = benchmark.load(args.windows, lengths.n_past, lengths.n_future)
+    maps_path = (benchmark.maps(args.windows) if isinstance(benchmark, EthUcyFold)
+                 else Path("data/semantic_maps"))
     scene_ids = set(bench.train.scene_id) | set(bench.val.scene_id)
-    maps, sizes, classes = ynet_inputs(maps_path, args.sdd, scene_ids, ethucy_scenes)
-    settings = ynet_settings(load_profile(YnetSettings, "ynet", params), stage, args.dataset,
-                             lengths.n_future, classes)
+    maps, classes = ynet_maps(maps_path)
+    sizes = benchmark.scene_sizes(args.windows, args.sdd, scene_ids)
+    settings = benchmark.ynet_settings(load_profile(YnetSettings, "ynet", params), stage,
+                                       lengths.n_future, classes)
     settings = dataclasses.replace(settings, **{**settings_overrides(args.set),
                                                 "epochs": args.epochs, "grad_clip_norm": 0.0})
 

@@ -25,6 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
 
 from bench import short_term_validation  # noqa: E402
+from pipeline.benchmarks.registry import short_term  # noqa: E402
 from pipeline.harness.metrics import step_errors, window_errors  # noqa: E402
 from pipeline.runners.short_term import ynet_options  # noqa: E402
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
@@ -44,7 +45,7 @@ def main() -> None:
     args = parser.parse_args()
     trained = short_term_validation.load_from_arguments(args, "short_term_paths")
     stage, val, settings = trained.stage, trained.val, trained.settings
-    options = ynet_options(stage, args.dataset, args.k)  # as evaluate_short_term_ynet samples
+    options = ynet_options(stage, short_term(args.dataset), args.k)  # as the stage samples
     began = time.perf_counter()
     (sampled,), _ = predict_samplings(
         trained.model, trained.scenes, settings, [Sampling(options, stage.seed)],

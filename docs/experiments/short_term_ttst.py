@@ -28,8 +28,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
 
 from bench import short_term_validation  # noqa: E402
+from pipeline.benchmarks.ethucy import to_metres  # noqa: E402
+from pipeline.benchmarks.registry import short_term  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402
-from pipeline.runners.short_term import benchmark_of, to_metres, unit_of, ynet_options  # noqa: E402
+from pipeline.runners.short_term import ynet_options  # noqa: E402
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
 
 
@@ -51,19 +53,20 @@ def main() -> None:
     args = parser.parse_args()
     trained = short_term_validation.load_from_arguments(args, "short_term_ttst")
     stage, val, settings = trained.stage, trained.val, trained.settings
-    benchmark = benchmark_of(args.dataset)
+    benchmark = short_term(args.dataset)
     grid = ttst_grid(args.temperatures, args.thresholds,
-                     (stage.temperature, stage.rel_threshold[benchmark]))
+                     (stage.temperature, benchmark.rel_threshold(stage)))
     seeds = [stage.seed + r for r in range(args.rounds)]
     samplings = [Sampling(ynet_options(dataclasses.replace(
-        stage, temperature=t, rel_threshold={**stage.rel_threshold, benchmark: r}), args.dataset,
-        args.k), seed) for t, r in grid for seed in seeds]  # scoring's options, the TTST pair replaced
+        stage, temperature=t, rel_threshold={**stage.rel_threshold, benchmark.settings_key: r}),
+        benchmark, args.k), seed)
+        for t, r in grid for seed in seeds]  # scoring's options, the TTST pair replaced
     began = time.perf_counter()
     sampled, _ = predict_samplings(trained.model, trained.scenes, settings, samplings,
                                    stage.eval_params(), len(val), f"Y-net K_e={args.k}",
                                    settings.crop, settings.crop_lead_steps)
     seconds = time.perf_counter() - began
-    unit = unit_of(args.dataset)
+    unit = benchmark.unit
 
     def in_unit(points: np.ndarray) -> np.ndarray:  # (N, ..., 2) original pixels -> unit
         return to_metres(points, val.scene_id, trained.scenes_info) if unit == "m" else points

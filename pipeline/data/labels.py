@@ -59,6 +59,15 @@ def reference_image_path(sdd_root: Path, name: str) -> Path:
     return Path(sdd_root) / "annotations" / scene / f"video{video}" / "reference.jpg"
 
 
+def sdd_scene_image(sdd_root: Path, scene_id: str) -> np.ndarray:
+    """(H, W, 3) uint8 BGR: the `reference.jpg` of SDD video `scene_id` (`<scene>_<k>`)."""
+    path = reference_image_path(sdd_root, scene_id)
+    image = cv2.imread(str(path))
+    if image is None:
+        raise FileNotFoundError(f"{path}: cannot read the scene image")
+    return image
+
+
 def find_images(sdd_root: Path) -> dict[str, Path]:
     """Every video's reference image, keyed `<scene>_<k>`."""
     found = {}

@@ -4,7 +4,7 @@ Every video's (C=6, H, W) map is at Y-net's resolution (`resize` of the original
 order `ynet.segmentation.CLASS_NAMES` (channel 0 = padding), stored uint8-quantised (p * 255) in
 one compressed `maps.npz` keyed `<scene>_<k>`; `load_semantic_maps` returns float probabilities.
 Stage `semantic_maps` writes them (`pipeline.runners.semantic_maps`: the U-Net's inference, or the
-hand labels one-hot); the ETH/UCY scenes' maps (`pipeline.data.short_term`) share the format.
+hand labels one-hot); the ETH/UCY scenes' maps (`pipeline.benchmarks.ethucy`) share the format.
 `iou_summary` and `comparison_figure` score and draw a map against the hand labels.
 """
 
@@ -51,7 +51,7 @@ def dequantise(stored: np.ndarray) -> np.ndarray:
 def maps_index_shapes(index: dict, path: Path) -> dict[str, tuple[int, int, int]]:
     """Name -> (C, H, W) of every map the `index.json` at `path` lists, its schema checked: both
     writers' (SDD videos: `pipeline.runners.semantic_maps`, ETH/UCY scenes:
-    `pipeline.data.short_term`) share these keys."""
+    `pipeline.benchmarks.ethucy`) share these keys."""
     classes = index_value(index, "classes", list, path)
     if not classes or not all(isinstance(c, str) for c in classes):
         raise IntermediateError(f"{path}: classes: expected a non-empty list of names, got {classes}")

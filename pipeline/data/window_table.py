@@ -18,6 +18,7 @@ A window table is long-format parquet, one row per (window, step), sorted by win
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -86,6 +87,17 @@ def to_arrays(table: pd.DataFrame, n_past: int) -> WindowArrays:
         first_frame=first["frame"].to_numpy(),
         split=first["split"].to_numpy(str),
     )
+
+
+def subset(arrays: WindowArrays, index: np.ndarray) -> WindowArrays:
+    """The windows `index` of `arrays`."""
+    return WindowArrays(**{f.name: getattr(arrays, f.name)[index]
+                           for f in dataclasses.fields(WindowArrays)})
+
+
+def select_split(arrays: WindowArrays, name: str) -> WindowArrays:
+    """The windows of split `name` (train / val / test)."""
+    return subset(arrays, np.flatnonzero(arrays.split == name))
 
 
 def load_windows(table_path: Path, n_past: int, horizon: int) -> WindowArrays:

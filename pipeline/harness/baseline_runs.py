@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.config import (EvaluateBaselineParams, RuntimeParams, TrainBaselineParams, WindowParams,
                              load_profile, load_section)
 from pipeline.data.window_table import WindowArrays, load_windows
@@ -35,7 +36,7 @@ from pipeline.device import CPU, SCORING, TRAINING, describe, select_device
 from pipeline.harness import baselines, epoch_selection
 from pipeline.harness.baselines.common import best_path, fit_result_from, load_checkpoint
 from pipeline.harness.model_runs import score_rounds, split_to_score
-from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
+from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import write_json
 from pipeline.models import WindowSet, window_set
 from pipeline.preemption import NEVER, Preemption
@@ -203,7 +204,8 @@ def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path, m
     scores, kept = score_split(model, table, horizon, checkpoint_dir, n_past, evaluation, device)
     if predictions is not None:
         kept.write(predictions, {
-            "model": model, "benchmark": long_term_benchmark(table), "unit": "px",
+            "model": model, "benchmark": SDD_LONG_TERM.prediction_benchmark(table),
+            "unit": SDD_LONG_TERM.unit,
             "split": evaluation.split, "k": evaluation.k, "horizon": horizon,
             "window_table": str(table),
             "checkpoint_dir": str(checkpoint_dir)})

@@ -20,11 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.config import (EvaluateBaselineParams, ParamsError, TrainBaselineParams, WindowParams,
                              load_section)
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.harness.metrics import seeded_rounds, window_errors
-from pipeline.harness.predictions import PredictionRounds, long_term_benchmark
+from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import atomic_dir, write_json
 from pipeline.models import (ModelEntry, WindowSet, check_predictions, load_model, load_models,
                              window_set)
@@ -141,7 +142,8 @@ def predict_to_files(name: str, horizon: int, table: Path, workdir: Path, metric
     record = {"model": name, "horizon": horizon, "split": evaluation.split, "seed": evaluation.seed,
               **scores, "train_seconds": facts["fit_seconds"]}
     kept.write(predictions, {
-        "model": name, "benchmark": long_term_benchmark(table), "unit": "px",
+        "model": name, "benchmark": SDD_LONG_TERM.prediction_benchmark(table),
+        "unit": SDD_LONG_TERM.unit,
         "split": evaluation.split, "k": evaluation.k, "horizon": horizon,
         "window_table": str(table), "checkpoint_dir": str(workdir)})
     write_json(record, metrics)

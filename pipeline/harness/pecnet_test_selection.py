@@ -40,7 +40,7 @@ from pipeline.device import CPU, TRAINING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import epoch_selection
 from pipeline.harness.baseline_runs import model_config
-from pipeline.harness.baselines.common import select_split
+from pipeline.data.window_table import select_split
 from pipeline.harness.baselines.pecnet import Pecnet
 from pipeline.harness.scoring import best_endpoint_ade, min_ade_fde
 

@@ -359,25 +359,6 @@ def read_prediction_rounds(path: Path) -> tuple[dict[int, PredictionArrays], dic
     return by_round, metadata
 
 
-IND_BENCHMARK = "ind_long_term"  # inD's benchmark name in a predictions file's metadata
-
-
-def long_term_benchmark(table: Path) -> str:
-    """The benchmark a long-term SDD window table defines, named after the table's file:
-    `sdd_long_term_tf<H>` for the horizon tables (`data/horizon_windows/tf<H>.parquet`),
-    `sdd_long_term_release_tf30` for the release's (`data/windows/release_tf30.parquet`). Window
-    ids belong to their table, so two tables are two benchmarks even where their windows agree
-    (the release's t_f = 30 test windows equal the horizon table's, under other ids)."""
-    return f"sdd_long_term_{Path(table).stem}"
-
-
-def long_term_metadata(model: str, table: Path) -> dict[str, Any]:
-    """What a stored long-term SDD test predictions file records first: the model, the benchmark of
-    the window table scored (`long_term_benchmark`), the unit and split, and the table."""
-    return {"model": model, "benchmark": long_term_benchmark(table), "unit": "px", "split": "test",
-            "window_table": str(table)}
-
-
 class PredictionRounds:
     """The rounds of one setting kept as a scorer samples them (`add`, round 0 first), written as
     one predictions file with their seeds (`write`). `add` only keeps a copy of the arrays (the

@@ -33,7 +33,7 @@ from pipeline.config import (EvaluateBaselineParams, RpecnetRolloutsParams, Runt
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import SCORING, describe, select_device
 from pipeline.device import generator as seeded_generator
-from pipeline.harness.baselines.common import select_split
+from pipeline.data.window_table import select_split
 from pipeline.harness.baselines.rpecnet import VARIANTS, RecurrentPecnet
 from pipeline.harness.scoring import min_ade_fde
 

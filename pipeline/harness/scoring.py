@@ -150,7 +150,7 @@ def sgan_sequences(scene_id: Any, first_frame: Any) -> np.ndarray:
     in (scene, frame) order.
 
     S-GAN's loader makes one sequence per file and start frame (the pedestrians present in all of
-    the next 20 frames), and `pipeline.data.short_term` cuts the ETH/UCY windows as it does, one
+    the next 20 frames), and `pipeline.benchmarks.ethucy` cuts the ETH/UCY windows as it does, one
     scene_id per S-GAN file, so this key gives S-GAN's sequences back. For other windows (SDD's
     1 FPS tracks) it groups those that start together: S-GAN's rule applied to those windows."""
     scene_id = np.asarray(scene_id)
@@ -320,20 +320,6 @@ def clipped_nll(log_pdf: np.ndarray, degenerate: np.ndarray, log_pdf_floor: floa
 # Scene compliance
 
 ALLOWED, FORBIDDEN, OUTSIDE = 0, 1, 2  # per-position status of `scene_compliance`
-FORBIDDEN_CLASSES = ("structure", "tree")  # where a pedestrian cannot stand (ynet CLASS_NAMES)
-
-
-def class_values(names: Sequence[str] = FORBIDDEN_CLASSES) -> tuple[int, ...]:
-    """The mask values of class `names` (indices in `ynet.segmentation.CLASS_NAMES`)."""
-    # Imported here: ynet.segmentation imports torch, which scoring itself never needs.
-    from ynet.segmentation import CLASS_NAMES
-
-    unknown = [name for name in names if name not in CLASS_NAMES]
-    if unknown:
-        raise ValueError(f"unknown class(es) {unknown}; classes are {list(CLASS_NAMES)}")
-    return tuple(CLASS_NAMES.index(name) for name in names)
-
-
 def mask_pixels(positions: np.ndarray, scale: float | np.ndarray) -> np.ndarray:
     """Integer (column, row) of the mask pixel nearest to each position (..., 2) = (x, y).
 

@@ -1,7 +1,7 @@
 """Y-net and the long-term baselines on inD (paper Tables 3/4): what the stages `train_ind` and
 `evaluate_ind` share.
 
-Both read the output of `ind_windows` (`pipeline.data.ind`). When inD was not provided each writes
+Both read the output of `ind_windows` (`pipeline.benchmarks.ind`). When inD was not provided each writes
 {"provided": false, "status": "not provided", "reason": ...} at once and exits 0; the report shows
 the reason in the inD cells. Otherwise, with the library functions the SDD stages use:
 
@@ -38,23 +38,21 @@ from typing import Any
 
 import cv2
 import numpy as np
-import pandas as pd
 import torch
 
+from pipeline.benchmarks.ind import IND, read_index, read_windows
 from pipeline.config import (CwsParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams,
                              RuntimeParams, SegmentationParams,
                              TrainBaselineParams, TtstParams, load_profile, load_section,
                              YnetSettings)
 from pipeline.data.semantic_maps import iou_summary, predicted_labels, resize_probabilities
-from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline.data.window_table import WindowArrays, select_split
 from pipeline.device import CPU
 from pipeline.harness import baseline_runs, baselines
-from pipeline.harness.baselines.common import select_split
 from pipeline.harness.baselines.rpecnet import RecurrentPecnet
 from pipeline.harness.model_runs import score_rounds, split_to_score
-from pipeline.harness.predictions import IND_BENCHMARK, PredictionRounds, write_no_predictions
-from pipeline.io import (IntermediateError, atomic_dir, check_array, index_value, read_json_index,
-                         read_npz, write_npz)
+from pipeline.harness.predictions import PredictionRounds, write_no_predictions
+from pipeline.io import atomic_dir, check_array, read_npz, write_npz
 from pipeline.model_list import BASELINES, OURS, TRAINED_BASELINES
 from pipeline.models.constant_velocity import ConstantVelocity
 from pipeline.preemption import NEVER, Preemption
@@ -357,15 +355,6 @@ def score_baselines(long: WindowArrays, base: WindowArrays, settings: IndEvalSet
 # Stored predictions
 
 
-def prediction_metadata(model: str, table: Path | None = None, **extra) -> dict:
-    """What an inD predictions file records besides its seeds (pixels of the recording's background
-    image; window ids of `table`, the t_f = 30 s window table of `ind_windows`)."""
-    metadata = {"model": model, "benchmark": IND_BENCHMARK, "unit": "px", "split": "test"}
-    if table is not None:
-        metadata["window_table"] = str(table)
-    return {**metadata, **extra}
-
-
 def write_predictions(folder: Path, predictions: dict[str, tuple[PredictionRounds, dict]],
                       not_provided: str | None = None) -> None:
     """`<folder>/<model>.parquet` for every model of `IND_MODELS`, the folder replaced as a whole:
@@ -375,7 +364,7 @@ def write_predictions(folder: Path, predictions: dict[str, tuple[PredictionRound
         for model in IND_MODELS:
             path = tmp / f"{model}.parquet"
             if not_provided is not None:
-                write_no_predictions(path, prediction_metadata(model), not_provided)
+                write_no_predictions(path, IND.prediction_metadata(model), not_provided)
             else:
                 rounds, metadata = predictions[model]
                 rounds.write(path, metadata)
@@ -383,13 +372,6 @@ def write_predictions(folder: Path, predictions: dict[str, tuple[PredictionRound
 
 # ---------------------------------------------------------------------------------------------
 # The benchmark
-
-
-def read_windows(ind_dir: Path, index: dict, horizon: int) -> WindowArrays:
-    name = index["tables"].get(str(horizon))
-    if name is None:
-        raise IntermediateError(f"{ind_dir}/index.json: no window table for t_f = {horizon} s")
-    return to_arrays(pd.read_parquet(ind_dir / name), index["n_past"])
 
 
 @dataclass(frozen=True)
@@ -404,45 +386,6 @@ class IndData:
     @property
     def sizes(self) -> dict[str, tuple[int, int]]:
         return {name: (info["height"], info["width"]) for name, info in self.index["scenes"].items()}
-
-
-IND_SPLITS = ("train", "val", "test")
-SCENE_KEYS = {"location": int, "split": str, "height": int, "width": int, "image": str,
-              "labels": str | None}  # what the benchmark reads of each `scenes` entry
-
-
-def check_ind_scene(entry: dict, ind_dir: Path, path: Path, where: str) -> None:
-    """One `scenes` entry of the `ind_windows` index: typed keys, a known split, a positive image
-    size, and the background (and mask) files it names present."""
-    for key, kind in SCENE_KEYS.items():
-        index_value(entry, key, kind, path, where, choices=IND_SPLITS if key == "split" else None)
-    if entry["height"] <= 0 or entry["width"] <= 0:
-        raise IntermediateError(f"{path}: {where}height, width: expected positive sizes, got "
-                                f"{entry['height']}, {entry['width']}")
-    for key in ("image", "labels"):
-        if entry[key] is not None and not (ind_dir / entry[key]).is_file():
-            raise IntermediateError(f"{path}: {where}{key}: {entry[key]} not in {ind_dir}")
-
-
-def read_index(ind_dir: Path) -> dict:
-    """The `index.json` of `ind_windows`, checked: the keys the benchmark reads, typed, and every
-    table and image it names present. An IntermediateError names the file and the key."""
-    ind_dir = Path(ind_dir)
-    path = ind_dir / "index.json"
-    index = read_json_index(path)
-    if not index_value(index, "provided", bool, path):
-        index_value(index, "reason", str, path)
-        return index
-    index_value(index, "n_past", int, path)
-    index_value(index, "horizon", int, path)
-    for horizon, name in index_value(index, "tables", dict, path).items():
-        if not (isinstance(name, str) and (ind_dir / name).is_file()):
-            raise IntermediateError(f"{path}: tables.{horizon}: {name!r} not a file in {ind_dir}")
-    scenes = index_value(index, "scenes", dict, path)
-    for name in scenes:
-        check_ind_scene(index_value(scenes, name, dict, path, "scenes."), ind_dir, path,
-                        f"scenes.{name}.")
-    return index
 
 
 def read_maps(checkpoint_dir: Path, index: dict, ind_dir: Path) -> dict[str, np.ndarray]:
@@ -505,12 +448,12 @@ def evaluate_benchmark(ind_dir: Path, checkpoint_dir: Path, trained: dict, setti
     table = Path(ind_dir) / index["tables"][str(index["horizon"])]
     options = sampling_options(settings.eval.k_e, settings.eval.k_a, settings.ttst, settings.cws,
                                True, True)
-    predictions = {"ynet": (ynet_rounds, prediction_metadata(
+    predictions = {"ynet": (ynet_rounds, IND.prediction_metadata(
         "ynet", table, k=options.K, k_e=options.K_e, k_a=options.K_a,
         sampling=dataclasses.asdict(options), checkpoint=str(checkpoint_dir / "ynet" / "best.pt")))}
     dirs = baseline_dirs(checkpoint_dir, data.long.future.shape[1], data.base.future.shape[1])
     for model, rounds in kept.items():
-        predictions[model] = (rounds, prediction_metadata(
+        predictions[model] = (rounds, IND.prediction_metadata(
             model, table, split=settings.evaluate_baseline.split, k=settings.evaluate_baseline.k,
             checkpoint_dir=str(dirs[model]) if model in dirs else None))  # constant velocity: none
     record = {

@@ -2,8 +2,8 @@
 scored in: what the stages `train_short_term_baseline` and `evaluate_short_term_baseline` share
 beyond `pipeline.runners.short_term`.
 
-Units. SDD (TrajNet) windows stay in original pixels, its unit. An ETH/UCY fold's windows are read
-from the table's metre columns (`x_m`, `y_m`): both upstream codebases train their ETH/UCY models
+Units (`ShortTermBenchmark.load_in_unit`). SDD (TrajNet) windows stay in original pixels, its
+unit. An ETH/UCY fold's windows are read from the table's metre columns (`x_m`, `y_m`): both upstream codebases train their ETH/UCY models
 in metres (S-GAN's released models on raw metres; PECNet's ETH code on metres times 170), and the
 images' pixels differ 2x between scenes (0.019-0.042 m each), so a pixel setting tuned on SDD
 (PECNet's 100 px neighbour radius, its likelihood width) meant something else in every scene.
@@ -20,52 +20,28 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
-import pandas as pd
-
+from pipeline.benchmarks.registry import short_term
 from pipeline.harness.baseline_runs import model_config
-from pipeline.io import IntermediateError
-from pipeline.runners.short_term import Benchmark, benchmark_of, load_benchmark, table_path, unit_of
 
 SECTION = "short_term_baselines"
 
 
-def benchmark_in_unit(table: pd.DataFrame, dataset: str, n_past: int, n_future: int) -> Benchmark:
-    """The splits of a short-term window table in the unit `dataset` is scored in: SDD pixels as
-    they are; ETH/UCY from its metre columns (train, val and test alike, the truth too)."""
-    if unit_of(dataset) == "px":
-        return load_benchmark(table, dataset, n_past, n_future, None)
-    missing = [c for c in ("x_m", "y_m") if c not in table.columns]
-    if missing:
-        raise ValueError(f"{dataset}: the window table has no metre columns {missing}")
-    metres = table.assign(x=table["x_m"], y=table["y_m"])
-    return dataclasses.replace(load_benchmark(metres, dataset, n_past, n_future, None), unit="m")
-
-
-def load_in_unit(windows: Path, dataset: str, n_past: int, n_future: int) -> Benchmark:
-    """`benchmark_in_unit` of `dataset`'s table in the `short_term_windows` folder; a table it
-    cannot use is named (`IntermediateError`)."""
-    path = table_path(windows, dataset)
-    try:
-        return benchmark_in_unit(pd.read_parquet(path), dataset, n_past, n_future)
-    except ValueError as error:
-        raise IntermediateError(f"{path}: {error}") from None
-
-
 def overrides(params: Mapping[str, Any], model: str, dataset: str) -> dict[str, Any]:
-    """`short_term_baselines.<profile>.<model>.<benchmark>` of the active profile ({} if empty)."""
+    """`short_term_baselines.<profile>.<model>.<benchmark>` of the active profile ({} if empty);
+    <benchmark>: the `settings_key` of `dataset`'s benchmark (sdd, ethucy)."""
     profile = params["profile"]
+    key = short_term(dataset).settings_key
     try:
-        value = params[SECTION][profile][model][benchmark_of(dataset)]
+        value = params[SECTION][profile][model][key]
     except (KeyError, TypeError) as error:
-        raise ValueError(f"params.yaml: {SECTION}.{profile}.{model}.{benchmark_of(dataset)} is "
+        raise ValueError(f"params.yaml: {SECTION}.{profile}.{model}.{key} is "
                          f"missing ({error})") from None
     if value is None:
         return {}
     if not isinstance(value, Mapping):
-        raise ValueError(f"params.yaml: {SECTION}.{profile}.{model}.{benchmark_of(dataset)} must "
+        raise ValueError(f"params.yaml: {SECTION}.{profile}.{model}.{key} must "
                          f"map settings to values, got {value!r}")
     return dict(value)
 
@@ -78,5 +54,5 @@ def baseline_config(model: str, dataset: str, params: Mapping[str, Any], epochs:
     unknown = sorted(set(changes) - {f.name for f in dataclasses.fields(base)})
     if unknown:
         raise ValueError(f"params.yaml: {SECTION}.{params['profile']}.{model}."
-                         f"{benchmark_of(dataset)}: {model} has no setting(s) {unknown}")
+                         f"{short_term(dataset).settings_key}: {model} has no setting(s) {unknown}")
     return dataclasses.replace(base, **changes, epochs=epochs)

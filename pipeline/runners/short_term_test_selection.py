@@ -26,14 +26,15 @@ from typing import Any
 
 import torch
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import (ShortTermModelsParams, ShortTermParams,
                              ShortTermPecnetTestSelectionParams, TrainBaselineParams, load_profile,
                              load_section)
 from pipeline.device import CPU, describe
 from pipeline.harness.pecnet_test_selection import (LABEL, PROTOCOLS, compat_summary,
                                                     retrain_scoring_splits)
-from pipeline.runners.short_term import benchmark_of, sample_windows
-from pipeline.runners.short_term_baselines import baseline_config, load_in_unit
+from pipeline.runners.short_term import sample_windows
+from pipeline.runners.short_term_baselines import baseline_config
 
 MODEL = "pecnet"
 SWITCH = "short_term_pecnet_test_selection"
@@ -84,9 +85,10 @@ def fold_record(dataset: str, params: Mapping[str, Any], windows: Path, training
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     shape = load_section(ShortTermParams, "short_term", params)
     training = load_section(TrainBaselineParams, "train_baseline", params)
-    k = settings.ks(dataset)[0]
-    config = baseline_config(MODEL, dataset, params, settings.epochs[MODEL][benchmark_of(dataset)])
-    bench = load_in_unit(windows, dataset, shape.n_past, shape.n_future)
+    benchmark = short_term(dataset)
+    k = benchmark.ks(settings)[0]
+    config = baseline_config(MODEL, dataset, params, benchmark.epochs(settings, MODEL))
+    bench = benchmark.load_in_unit(windows, shape.n_past, shape.n_future)
     val = sample_windows(bench.val, settings.val_windows, settings.seed)
     t0 = time.perf_counter()
     timed, fitted = retrain_scoring_splits(bench.train, val, bench.test, config, training.seed, k,

@@ -27,13 +27,14 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
-from pipeline.data.labels import reference_image_path
+from pipeline.data.labels import sdd_scene_image
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import SceneWindows, group_by_scene, window_inputs
 from pipeline.device import CPU, conv_layout, generator, module_device, use_bf16
 from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, window_errors
-from pipeline.harness.predictions import PredictionRounds, long_term_metadata
+from pipeline.harness.predictions import PredictionRounds
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
 from ynet.sampling import SamplingOptions, encode, predict, predict_encoded
@@ -172,7 +173,7 @@ def prediction_metadata(table: Path, options: SamplingOptions | None = None,
     """What a stored long-term SDD Y-net predictions file records besides its seeds: the model, the
     benchmark of the window table scored, the unit and split, and, where it was scored, the
     sampling options (K = K_e x K_a) and the checkpoint."""
-    metadata = long_term_metadata("ynet", table)
+    metadata = SDD_LONG_TERM.prediction_metadata("ynet", table)
     if options is not None:
         metadata.update(k=options.K, k_e=options.K_e, k_a=options.K_a,
                         sampling=asdict(options), checkpoint=str(checkpoint))
@@ -301,15 +302,6 @@ def qualitative_examples(model: YNet, picks: list[tuple[SceneWindows, int, np.nd
             arrays[f"{key}_{i}"] = value
         arrays[f"scene_id_{i}"] = np.array(scene.scene_id)
     return arrays
-
-
-def sdd_scene_image(sdd_root: Path, scene_id: str) -> np.ndarray:
-    """(H, W, 3) uint8 BGR: the `reference.jpg` of SDD video `scene_id` (`<scene>_<k>`)."""
-    path = reference_image_path(sdd_root, scene_id)
-    image = cv2.imread(str(path))
-    if image is None:
-        raise FileNotFoundError(f"{path}: cannot read the scene image")
-    return image
 
 
 def ka_grid(params: EvalParams) -> list[tuple[int, int]]:

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import torch
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams,
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
@@ -31,8 +32,7 @@ from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.model_list import TRAINED_BASELINES
-from pipeline.runners.short_term import prediction_metadata, run_record, score_baseline
-from pipeline.runners.short_term_baselines import load_in_unit
+from pipeline.runners.short_term import run_record, score_baseline
 
 
 @exit_on_bad_intermediate
@@ -58,14 +58,15 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
     print(f"evaluate_short_term_baseline: {args.model} on {describe(device)}")
 
-    bench = load_in_unit(args.windows, args.dataset, windows.n_past, windows.n_future)
+    benchmark = short_term(args.dataset)
+    bench = benchmark.load_in_unit(args.windows, windows.n_past, windows.n_future)
     torch.set_num_threads(load_section(TrainBaselineParams, "train_baseline", params).threads)
-    ks = settings.ks(args.dataset)
+    ks = benchmark.ks(settings)
     kept = PredictionRounds(bench.test.window_id)
     results, seconds = score_baseline(args.model, bench, args.checkpoint_dir, ks, settings.rounds,
                                       settings.seed, device, kept)
-    kept.write(args.predictions, prediction_metadata(args.windows, args.dataset, args.model, ks,
-                                                     checkpoint_dir=str(args.checkpoint_dir)))
+    kept.write(args.predictions, benchmark.prediction_metadata(
+        args.windows, args.model, ks, checkpoint_dir=str(args.checkpoint_dir)))
     facts = {**trained["train"], "eval_seconds": seconds}
     write_json(run_record(args.dataset, args.model, profile, bench, settings.rounds, ks, results,
                           facts), args.metrics)

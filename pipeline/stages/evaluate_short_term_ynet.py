@@ -32,13 +32,13 @@ from pathlib import Path
 
 import numpy as np
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
                              load_profile, load_section, read_params)
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
-from pipeline.runners.short_term import (load_dataset, prediction_metadata, run_record,
-                                         scene_images, score_ynet, ynet_inputs, ynet_options,
+from pipeline.runners.short_term import (run_record, score_ynet, ynet_maps, ynet_options,
                                          ynet_qualitative)
 from pipeline.runners.ynet_scoring import load_for_scoring
 
@@ -64,10 +64,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--qualitative", type=Path, required=True,
                         help="a few test windows' heatmaps and samples (npz)")
     args = parser.parse_args(argv)
+    benchmark = short_term(args.dataset)
     trained = json.loads(args.train_metrics.read_text())
     if not trained["trained"]:
         reason = trained["not_run_reason"]
-        write_no_predictions(args.predictions, prediction_metadata(args.windows, args.dataset, MODEL),
+        write_no_predictions(args.predictions, benchmark.prediction_metadata(args.windows, MODEL),
                              reason)
         write_npz(args.qualitative, {"not_run_reason": np.array(reason)})
         write_json(trained, args.metrics)
@@ -83,22 +84,23 @@ def main(argv: list[str] | None = None) -> None:
     windows = load_section(ShortTermParams, "short_term", params)
     device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
 
-    bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
-    maps, sizes, _ = ynet_inputs(args.maps, args.sdd, set(bench.test.scene_id), ethucy_scenes)
-    image_of = scene_images(args.sdd, args.ethucy_scenes, ethucy_scenes)
+    bench = benchmark.load(args.windows, windows.n_past, windows.n_future)
+    maps, _ = ynet_maps(args.maps)
+    sizes = benchmark.scene_sizes(args.windows, args.sdd, set(bench.test.scene_id))
+    image_of = benchmark.scene_images(args.windows, args.sdd, args.ethucy_scenes)
     checkpoint = args.checkpoint_dir / "best.pt"
     model, loaded, scenes = load_for_scoring(checkpoint, bench.test, maps, sizes,
                                              settings.eval_threads, device)
     print(f"evaluate_short_term_ynet: on {describe(device)}")  # after: loading sets the threads
-    ks = settings.ks(args.dataset)
+    ks = benchmark.ks(settings)
     kept = PredictionRounds(bench.test.window_id)
-    results, seconds, reported = score_ynet(model, loaded, scenes, bench, args.dataset, settings, ks,
+    results, seconds, reported = score_ynet(model, loaded, scenes, bench, benchmark, settings, ks,
                                             kept)
-    qualitative = ynet_qualitative(model, loaded, scenes, bench, args.dataset, settings, ks[0],
+    qualitative = ynet_qualitative(model, loaded, scenes, bench, benchmark, settings, ks[0],
                                    image_of)
-    options = ynet_options(settings, args.dataset, ks[0])
-    kept.write(args.predictions, prediction_metadata(
-        args.windows, args.dataset, MODEL, ks, k_e=options.K_e, k_a=options.K_a,
+    options = ynet_options(settings, benchmark, ks[0])
+    kept.write(args.predictions, benchmark.prediction_metadata(
+        args.windows, MODEL, ks, k_e=options.K_e, k_a=options.K_a,
         sampling=dataclasses.asdict(options), checkpoint=str(checkpoint)))
     write_npz(args.qualitative, qualitative)
     facts = {**trained["train"], "eval_seconds": seconds, "settings": reported}

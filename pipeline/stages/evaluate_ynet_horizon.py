@@ -25,8 +25,9 @@ import json
 import time
 from pathlib import Path
 
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.config import RuntimeParams, WindowParams, load_section, read_params
-from pipeline.harness.predictions import PredictionRounds, long_term_metadata, write_no_predictions
+from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ynet_horizon import horizon_splits, training_summary
 from pipeline.slot_scoring import SlotScoring, check_agrees, horizon_slot, read_slot_scoring
@@ -50,7 +51,7 @@ def main(argv: list[str] | None = None) -> None:
     scoring = read_slot_scoring(args.scoring, horizon_slot(args.horizon))
     check_agrees(scoring, trained["trained"], args.scoring, args.train_metrics)
     if scoring is None:
-        write_no_predictions(args.predictions, long_term_metadata("ynet", args.table),
+        write_no_predictions(args.predictions, SDD_LONG_TERM.prediction_metadata("ynet", args.table),
                              trained["not_run_reason"])
         write_json(trained, args.metrics)
         print(f"evaluate_ynet_horizon: t_f = {args.horizon} s was not trained: "

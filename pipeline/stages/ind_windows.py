@@ -2,7 +2,7 @@
 
 inD is licence-restricted: the project never fetches or redistributes it. `data.ind.path` names the
 user's copy; empty, the stage still succeeds and writes an explicit "not provided" record and empty
-tables (`pipeline.data.ind`). The copy lies outside the repository, so after changing its files at
+tables (`pipeline.benchmarks.ind`). The copy lies outside the repository, so after changing its files at
 the same path run `dvc repro -f ind_windows`. Params: `data.ind`, `windows.n_past`,
 `windows.target_fps`.
 
@@ -16,8 +16,8 @@ import json
 import sys
 from pathlib import Path
 
+from pipeline.benchmarks.ind import NOT_PROVIDED_REASON, IndError, build, write
 from pipeline.config import DataParams, WindowParams, load_section, read_params
-from pipeline.data.ind import NOT_PROVIDED_REASON, IndError, build, write
 from pipeline.data.labels import MaskError
 
 

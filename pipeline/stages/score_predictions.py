@@ -22,13 +22,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.benchmarks.ind import IND
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM, read_scales, sdd_label_masks
 from pipeline.config import ScorePredictionsParams, WindowParams, load_section, read_params
-from pipeline.harness.stored_scores import (ind_benchmark_spec, long_term_benchmark_spec,
-                                            read_scales, score_benchmarks, score_tables,
-                                            sdd_label_masks)
+from pipeline.harness.stored_scores import score_benchmarks, score_tables
 from pipeline.io import exit_on_bad_intermediate, write_json
-
-IND = "ind"  # inD's name in its record
 
 
 @exit_on_bad_intermediate
@@ -56,11 +54,11 @@ def main(argv: list[str] | None = None) -> None:
     masks, scales = sdd_label_masks(args.labels, settings.forbidden_classes), read_scales(args.scales)
     paths = {f"tf{h}": args.horizon_windows / f"tf{h}.parquet" for h in windows.horizons}
     paths[args.release_windows.stem] = args.release_windows
-    tables = {name: long_term_benchmark_spec(path, windows.n_past, masks, scales, args.scales)
+    tables = {name: SDD_LONG_TERM.scored_table(path, windows.n_past, masks, scales, args.scales)
               for name, path in paths.items()}
-    ind = ind_benchmark_spec(args.ind, settings.forbidden_classes)
+    ind = IND.scored_table(args.ind, settings.forbidden_classes)
     write_json(score_tables(tables, args.predictions, settings), args.out)
-    write_json(score_benchmarks({IND: (ind, args.ind_predictions)}, settings), args.ind_out)
+    write_json(score_benchmarks({IND.name: (ind, args.ind_predictions)}, settings), args.ind_out)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@ stored short-term predictions alone (no model runs): the paper's min-ADE / min-F
 TrajNet SDD, metres for ETH/UCY), joint ADE / FDE, best-endpoint ADE, S-GAN's sequence ADE / FDE,
 miss rate, KDE NLL, off-limits share (SDD: hand labels; ETH/UCY: not road) beside the ground
 truth's, collisions, each as mean and std over the stored rounds and per scene
-(`pipeline.harness.stored_scores`, `pipeline.harness.stored_short_term`).
+(`pipeline.harness.stored_scores`; each benchmark's tables, units and masks: `pipeline.benchmarks`).
 
 Scores `<predictions>/<dataset>/<model>.parquet` for sdd and the five ETH/UCY folds against the
 test windows of the dataset's table in `--windows`; a file that says why nothing was predicted is
@@ -19,10 +19,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.benchmarks.sdd_long_term import read_scales, sdd_label_masks
 from pipeline.config import (DATASETS, ScorePredictionsParams, ShortTermParams, load_section,
                              read_params)
-from pipeline.harness.stored_scores import read_scales, score_benchmarks, sdd_label_masks
-from pipeline.harness.stored_short_term import short_term_benchmarks
+from pipeline.harness.stored_scores import score_benchmarks, short_term_tables
 from pipeline.io import exit_on_bad_intermediate, write_json
 
 
@@ -42,9 +42,9 @@ def main(argv: list[str] | None = None) -> None:
     params = read_params(args.params)
     settings = load_section(ScorePredictionsParams, "score_predictions", params)
     n_past = load_section(ShortTermParams, "short_term", params).n_past
-    benchmarks = short_term_benchmarks(args.windows, args.predictions, DATASETS, n_past,
-                                       sdd_label_masks(args.labels, settings.forbidden_classes),
-                                       read_scales(args.scales), args.scales)
+    benchmarks = short_term_tables(args.windows, args.predictions, DATASETS, n_past,
+                                   sdd_label_masks(args.labels, settings.forbidden_classes),
+                                   read_scales(args.scales), args.scales)
     write_json(score_benchmarks(benchmarks, settings), args.out)
 
 

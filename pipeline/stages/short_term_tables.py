@@ -22,6 +22,7 @@ import argparse
 import json
 from pathlib import Path
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import DATASETS, MODELS
 from pipeline.harness.metrics import METRIC_KEYS
 from pipeline.io import write_json
@@ -63,7 +64,7 @@ def tables(runs: dict[tuple[str, str], dict]) -> dict[str, dict]:
         out[table_file(dataset)] = {
             "dataset": dataset,
             "profile": next((run.get("profile") for run in found.values()), None),
-            "unit": "px" if dataset == "sdd" else "m",
+            "unit": short_term(dataset).unit,
             "rounds": max((run["rounds"] for run in scored), default=None),
             "models": {model: model_entry(run, dataset) for model, run in found.items()},
         }

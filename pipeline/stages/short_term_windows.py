@@ -2,7 +2,8 @@
 
 TrajNet SDD in pixels (equal to the release's `test_trajnet.pkl`), the five ETH/UCY leave-one-out
 folds in pixels and metres via the authors' homographies, and road / not-road maps of the ETH/UCY
-scenes (`pipeline.data.short_term`). Params: `short_term`.
+scenes (`pipeline.benchmarks.short_term_windows`, `.trajnet_sdd`, `.ethucy`). Params:
+`short_term`.
 
     python -m pipeline.stages.short_term_windows --trajnet-sdd data/raw/trajnet-sdd --sgan data/raw/sgan \
         --ynet-release data/raw/ynet-release --ethucy-scenes data/raw/ethucy-scenes \
@@ -16,9 +17,10 @@ import json
 import sys
 from pathlib import Path
 
+from pipeline.benchmarks.short_term import ShortTermInputError
+from pipeline.benchmarks.short_term_windows import build
 from pipeline.config import ShortTermParams, load_section, read_params
 from pipeline.data.homography import HomographyError
-from pipeline.data.short_term import ShortTermInputError, build
 from pipeline.io import write_json
 
 

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import torch
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams,
                              ShortTermParams, TrainBaselineParams, load_profile, load_section,
                              read_params)
@@ -31,8 +32,8 @@ from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.preemption import Preemption, exit_when_stopped
-from pipeline.runners.short_term import benchmark_of, train_baseline, training_record
-from pipeline.runners.short_term_baselines import baseline_config, load_in_unit
+from pipeline.runners.short_term import train_baseline, training_record
+from pipeline.runners.short_term_baselines import baseline_config
 
 
 @exit_when_stopped
@@ -54,11 +55,12 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(runtime.device, purpose=TRAINING)
     print(f"train_short_term_baseline: {args.model} on {describe(device)}")
 
-    bench = load_in_unit(args.windows, args.dataset, windows.n_past, windows.n_future)
+    benchmark = short_term(args.dataset)
+    bench = benchmark.load_in_unit(args.windows, windows.n_past, windows.n_future)
     seeds = load_section(TrainBaselineParams, "train_baseline", params)
     torch.set_num_threads(seeds.threads)
     config = baseline_config(args.model, args.dataset, params,
-                             settings.epochs[args.model][benchmark_of(args.dataset)])
+                             benchmark.epochs(settings, args.model))
     with Preemption(runtime.max_minutes) as preemption:
         facts = train_baseline(args.model, bench, config, args.checkpoint_dir, seeds.seed,
                                settings.val_windows, settings.seed, device, preemption)

@@ -21,13 +21,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.benchmarks.registry import short_term
 from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
                              YnetSettings, load_profile, load_section, read_params)
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
-from pipeline.runners.short_term import (load_dataset, not_run_record, train_ynet, training_record,
-                                         ynet_inputs, ynet_settings)
+from pipeline.runners.short_term import not_run_record, train_ynet, training_record, ynet_maps
 
 MODEL = "ynet"
 
@@ -58,11 +58,13 @@ def main(argv: list[str] | None = None) -> None:
     runtime = load_section(RuntimeParams, "runtime", params)
     device = select_device(runtime.device, purpose=TRAINING)
 
-    bench, ethucy_scenes = load_dataset(args.windows, args.dataset, windows.n_past, windows.n_future)
+    benchmark = short_term(args.dataset)
+    bench = benchmark.load(args.windows, windows.n_past, windows.n_future)
     scene_ids = set(bench.train.scene_id) | set(bench.val.scene_id) | set(bench.test.scene_id)
-    maps, sizes, classes = ynet_inputs(args.maps, args.sdd, scene_ids, ethucy_scenes)
-    model_settings = ynet_settings(load_profile(YnetSettings, "ynet", params), settings,
-                                   args.dataset, windows.n_future, classes)
+    maps, classes = ynet_maps(args.maps)
+    sizes = benchmark.scene_sizes(args.windows, args.sdd, scene_ids)
+    model_settings = benchmark.ynet_settings(load_profile(YnetSettings, "ynet", params), settings,
+                                             windows.n_future, classes)
     with Preemption(runtime.max_minutes) as preemption:
         facts = train_ynet(bench, maps, sizes, model_settings, windows.n_past, args.checkpoint_dir,
                            settings.val_windows, settings.seed, device, preemption)

@@ -32,7 +32,6 @@ from `pipeline.device.select_device`.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import time
 from collections.abc import Callable
@@ -113,17 +112,6 @@ def neighbour_mask(groups: torch.Tensor, positions: torch.Tensor,
         dist = torch.linalg.vector_norm(positions[:, None] - positions[None, :], dim=-1)  # (B, B, T)
         same = same & (dist.amin(dim=-1) < radius)
     return same | torch.eye(len(groups), dtype=torch.bool, device=groups.device)
-
-
-def subset(arrays: WindowArrays, index: np.ndarray) -> WindowArrays:
-    """The windows `index` of `arrays`."""
-    return WindowArrays(**{f.name: getattr(arrays, f.name)[index]
-                           for f in dataclasses.fields(WindowArrays)})
-
-
-def select_split(arrays: WindowArrays, name: str) -> WindowArrays:
-    """The windows of split `name` (train / val / test)."""
-    return subset(arrays, np.flatnonzero(arrays.split == name))
 
 
 def check_windows(arrays: WindowArrays, n_past: int, n_future: int | None, what: str) -> None:

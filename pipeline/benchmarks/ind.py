@@ -1,4 +1,6 @@
-"""The inD long-term windows, cut from the user's own copy of inD (stage `ind_windows`).
+"""inD, the long-term benchmark on another dataset (`IND`): its windows, cut from the user's own
+copy of inD (stage `ind_windows`), the folder's index as the runners read it (`read_index`,
+`read_windows`) and what scoring its stored predictions needs (`Ind.scored_table`).
 
 inD (the Intersection Drone Dataset) is licence-restricted: this project never fetches, stores or
 redistributes it. A user who holds a copy sets `data.ind.path` in params.yaml to the release folder
@@ -37,6 +39,7 @@ import json
 import math
 import re
 import shutil
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,11 +47,13 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from pipeline.benchmarks.base import Benchmark, SceneMasks, ScoredTable, class_values
 from pipeline.config import IndParams, WindowParams
 from pipeline.data.labels import validate_mask
-from pipeline.data.window_table import COLUMNS, conform
+from pipeline.data.window_table import COLUMNS, WindowArrays, conform, to_arrays
 from pipeline.data.windows import count_windows, cut_pieces, cut_windows
-from pipeline.io import atomic_dir, write_json
+from pipeline.io import (IntermediateError, atomic_dir, index_value, read_json_index,
+                         write_json)
 
 # Columns of the official inD format this stage reads (the files hold more; see the inD
 # documentation: tracks also carry heading, width, length, velocities and accelerations).
@@ -402,3 +407,128 @@ def write(result: IndWindows, out: Path, metrics: Path) -> None:
                 cv2.imwrite(str(staging / "labels" / f"{name}.png"), mask)
         (staging / "index.json").write_text(json.dumps(result.index, indent=1, sort_keys=True) + "\n")
     write_json(result.metrics, metrics, sort_keys=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# The benchmark
+
+
+@dataclass(frozen=True)
+class Ind(Benchmark):
+    """inD: the t_f = 30 s table's test windows, in pixels of each recording's background image."""
+
+    prediction_benchmark: str = "ind_long_term"  # the benchmark a predictions file names
+
+    def prediction_metadata(self, model: str, table: Path | None = None, **extra) -> dict:
+        """What an inD predictions file records besides its seeds (pixels of the recording's
+        background image; window ids of `table`, the t_f = 30 s window table of `ind_windows`)."""
+        metadata = {"model": model, "benchmark": self.prediction_benchmark, "unit": self.unit,
+                    "split": self.split}
+        if table is not None:
+            metadata["window_table"] = str(table)
+        return {**metadata, **extra}
+
+    def scored_table(self, ind_dir: Path, forbidden_classes: Sequence[str]) -> ScoredTable:
+        """inD (stage `ind_windows`' folder) as scoring sees it: the t_f = `horizon` table's test
+        windows in pixels of each recording's background, metres per pixel orthoPxToMeter x
+        `background_scale` per recording, the hand-labelled masks the index names (`labels`, in
+        `ynet.segmentation.CLASS_NAMES` values) where there are any. inD not provided: no scales
+        and no masks, the index's reason why."""
+        ind_dir = Path(ind_dir)
+        path = ind_dir / "index.json"
+        index = read_json_index(path)
+        horizon = index_value(index, "horizon", int, path)
+        tables = index_value(index, "tables", dict, path)
+        table = ind_dir / index_value(tables, str(horizon), str, path, "tables.")
+        n_past = index_value(index, "n_past", int, path)
+        if not index_value(index, "provided", bool, path):
+            reason = index_value(index, "reason", str, path)
+            return ScoredTable(self.prediction_benchmark, table, self.unit, n_past,
+                               split=self.split, metres_per_unit={},
+                               scales_source=f"inD not provided: {reason}",
+                               masks_absent=f"inD not provided: {reason}")
+        background = index_value(index, "background_scale", float, path)
+        scenes = index_value(index, "scenes", dict, path)
+        scales, labelled = {}, {}
+        for name in scenes:
+            entry = index_value(scenes, name, dict, path, "scenes.")
+            where = f"scenes.{name}."
+            scales[name] = index_value(entry, "ortho_px_to_meter", float, path, where) * background
+            if not 0 < scales[name] < float("inf"):
+                raise IntermediateError(f"{path}: {where}ortho_px_to_meter: expected a positive "
+                                        f"scale, got {entry['ortho_px_to_meter']}")
+            labels = index_value(entry, "labels", str | None, path, where)
+            if labels is not None:
+                labelled[name] = (ind_dir / labels, (index_value(entry, "height", int, path, where),
+                                                     index_value(entry, "width", int, path, where)))
+
+        def read(name: str) -> np.ndarray:
+            mask_path, size = labelled[name]
+            mask = cv2.imread(str(mask_path), cv2.IMREAD_UNCHANGED)
+            if mask is None or mask.shape != size:
+                raise IntermediateError(f"{mask_path}: expected a {size} mask (H, W), got "
+                                        f"{None if mask is None else mask.shape}")
+            return mask
+
+        masks = (SceneMasks(f"hand labels {ind_dir.as_posix()}/labels",
+                            class_values(forbidden_classes), tuple(forbidden_classes),
+                            frozenset(labelled), read) if labelled else None)
+        return ScoredTable(self.prediction_benchmark, table, self.unit, n_past, split=self.split,
+                           metres_per_unit=scales,
+                           scales_source=f"per recording, orthoPxToMeter x {background:g} ({path})",
+                           masks=masks, masks_absent=None if labelled else
+                           "no hand-labelled inD mask (data.ind.labels not set)")
+
+
+IND = Ind("ind", "inD long-term", "px")
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading the stage's folder
+
+
+IND_SPLITS = ("train", "val", "test")
+SCENE_KEYS = {"location": int, "split": str, "height": int, "width": int, "image": str,
+              "labels": str | None}  # what the benchmark reads of each `scenes` entry
+
+
+def check_ind_scene(entry: dict, ind_dir: Path, path: Path, where: str) -> None:
+    """One `scenes` entry of the `ind_windows` index: typed keys, a known split, a positive image
+    size, and the background (and mask) files it names present."""
+    for key, kind in SCENE_KEYS.items():
+        index_value(entry, key, kind, path, where, choices=IND_SPLITS if key == "split" else None)
+    if entry["height"] <= 0 or entry["width"] <= 0:
+        raise IntermediateError(f"{path}: {where}height, width: expected positive sizes, got "
+                                f"{entry['height']}, {entry['width']}")
+    for key in ("image", "labels"):
+        if entry[key] is not None and not (ind_dir / entry[key]).is_file():
+            raise IntermediateError(f"{path}: {where}{key}: {entry[key]} not in {ind_dir}")
+
+
+def read_index(ind_dir: Path) -> dict:
+    """The `index.json` of `ind_windows`, checked: the keys the benchmark reads, typed, and every
+    table and image it names present. An IntermediateError names the file and the key."""
+    ind_dir = Path(ind_dir)
+    path = ind_dir / "index.json"
+    index = read_json_index(path)
+    if not index_value(index, "provided", bool, path):
+        index_value(index, "reason", str, path)
+        return index
+    index_value(index, "n_past", int, path)
+    index_value(index, "horizon", int, path)
+    for horizon, name in index_value(index, "tables", dict, path).items():
+        if not (isinstance(name, str) and (ind_dir / name).is_file()):
+            raise IntermediateError(f"{path}: tables.{horizon}: {name!r} not a file in {ind_dir}")
+    scenes = index_value(index, "scenes", dict, path)
+    for name in scenes:
+        check_ind_scene(index_value(scenes, name, dict, path, "scenes."), ind_dir, path,
+                        f"scenes.{name}.")
+    return index
+
+
+def read_windows(ind_dir: Path, index: dict, horizon: int) -> WindowArrays:
+    name = index["tables"].get(str(horizon))
+    if name is None:
+        raise IntermediateError(f"{ind_dir}/index.json: no window table for t_f = {horizon} s")
+    return to_arrays(pd.read_parquet(ind_dir / name), index["n_past"])
+

@@ -1,33 +1,40 @@
-"""The short-term benchmarks' windows (n_p = 8 + n_f = 12 at 2.5 FPS): TrajNet SDD and ETH/UCY
-(stage `short_term_windows`).
+"""ETH/UCY, the short-term benchmark in metres (paper Table 2): Social-GAN's five
+leave-one-scene-out folds (eth, hotel, univ, zara1, zara2), each a benchmark of its own
+(`EthUcyFold`).
 
-SDD, TrajNet split: `trajnet-sdd/{train,test}/<scene>_<video>.txt` hold fixed windows of 20 steps
-(`frame track x y`, 20 consecutive rows per window, raw 30 FPS frame numbers stepping by 12) in
-metres. Pixels = metres / the video's ratio in `H_SDD.txt` (the `sdd_ratio_version` row); with
-version A the test windows equal the authors' `test_trajnet.pkl`. Validation = whole train videos.
+Windows: `sgan/datasets/<fold>/{train,val,test}/*.txt` (`frame ped x y`, metres), cut as SGAN's
+loader cuts them: every run of 20 consecutive frames of a file (stride one frame), one window per
+pedestrian present in all 20, kept only where at least `ethucy_min_agents` pedestrians are (SGAN:
+`> min_ped`, min_ped = 1). Pixels = the inverse of the authors' homography `<scene>_H.txt` (eth,
+hotel: pixel coordinates swapped; `pipeline.data.homography`) on the grid of the scene's
+`oracle.png`. Like every window table, x, y are ORIGINAL pixels: Y-net scales them by its own
+`resize` (1/1.5 for ETH/UCY). The metres stay beside them (`x_m`, `y_m`) so that errors are
+computed in metres, not pixels (upstream bug 4): Y-net's predictions go back to metres through
+each scene's homography (`to_metres`); the baselines train and predict in metres
+(`load_in_unit`).
 
-ETH/UCY: Social-GAN's leave-one-scene-out folds `sgan/datasets/<fold>/{train,val,test}/*.txt`
-(`frame ped x y`, metres). Windows as SGAN's loader cuts them: every run of 20 consecutive frames of
-a file (stride one frame), one window per pedestrian present in all 20, kept only where at least
-`ethucy_min_agents` pedestrians are (SGAN: `> min_ped`, min_ped = 1). Pixels = the inverse of the
-authors' homography `<scene>_H.txt` (eth, hotel: pixel coordinates swapped; `pipeline.data.homography`)
-on the grid of the scene's `oracle.png`. Like every window table, x, y are ORIGINAL pixels: Y-net
-scales them by its own `resize` (1/1.5 for ETH/UCY). The metres stay beside them (`x_m`, `y_m`)
-so that errors are computed in metres, not pixels (upstream bug 4).
+Scene maps: for each scene, N_c = 2 classes from `oracle.png` (1 = road, the ground people walk
+on; 0 = not road) plus channel 0 for padding, as `pipeline.data.semantic_maps` stores SDD's:
+`ethucy_semantic/maps.npz` (uint8 p * 255, `load_semantic_maps` reads it) and `index.json`
+(classes, resize, and per scene the pixel grid, homography and swap flag: `load_ethucy_scenes`).
 
-Scene maps: for each ETH/UCY scene, N_c = 2 classes from `oracle.png` (1 = road, the ground people
-walk on; 0 = not road) plus channel 0 for padding, as `pipeline.data.semantic_maps` stores SDD's:
-`maps.npz` (uint8 p * 255, `load_semantic_maps` reads it) and `index.json` (classes, resize, and per
-scene the pixel grid, homography and swap flag: `load_ethucy_scenes`).
-
-Outputs (`--out`): `sdd_trajnet.parquet`, `ethucy_<fold>.parquet` (window-table schema plus `x_m`,
-`y_m`; `t_f` holds n_f, the horizon in steps, as at 1 FPS), `ethucy_semantic/{maps.npz,index.json}`.
+Scoring stored predictions: the unit is metres (no scale); the scene masks are those maps
+(`road_masks`): a position in metres goes to the scene's pixel grid through the inverse of its
+homography, then to the map at `resize` map pixels per pixel; a map pixel is not road where its
+not-road probability exceeds its road probability (the maps are area-resized: a boundary pixel
+holds both), and not road is the forbidden class. A position the inverse homography sends to
+infinity (the horizon) counts as outside the map. SGAN's loader cuts a window at every frame, so
+each neighbour shares frames with a window in up to 2 n_f - 1 overlapping windows (zara1: 81
+partner windows of 7 other pedestrians on average): collisions are counted only between windows
+that start at the same frame, one sequence (`same_start_collisions`). The same sequences
+(scene_id = S-GAN's file, first frame = its start frame) give S-GAN's own ADE / FDE.
 """
 
 from __future__ import annotations
 
 import io
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,19 +42,22 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from pipeline.benchmarks.base import SceneMasks, ScoredTable
+from pipeline.benchmarks.short_term import (METRE_COLUMNS, ShortTermBenchmark, ShortTermInputError,
+                                            ShortTermSplits, number_windows, read_rows, splits_of)
 from pipeline.config import ShortTermParams
-from pipeline.data.homography import metres_to_pixels, read_homography
-from pipeline.data.semantic_maps import QUANT, quantise
-from pipeline.data.window_table import conform
-from pipeline.data.windows import count_windows
-from pipeline.io import IntermediateError, atomic_dir, index_value, positive_ints, read_json_index
-from pipeline.splits import FOLD_TEST_SCENES, TEST_VIDEOS, TRAIN_VIDEOS, split_of
+from pipeline.data.homography import metres_to_pixels, pixels_to_metres, read_homography
+from pipeline.data.semantic_maps import QUANT, load_semantic_maps, quantise
+from pipeline.data.window_table import select_split, to_arrays
+from pipeline.io import IntermediateError, index_value, positive_ints, read_json_index
+from pipeline.splits import FOLD_TEST_SCENES
 
-SDD_RATIOS = "H_SDD.txt"  # metres per pixel of every SDD video, inside trajnet-sdd/
 ETHUCY_DIR = Path("data/eth_ucy")  # inside ynet-release/: <scene>_H.txt, <scene>/oracle.png
-METRE_COLUMNS = ("x_m", "y_m")
 MAP_CLASSES = ("padding", "not_road", "road")  # channel order of the ETH/UCY maps (N_c = 2 + padding)
 PAD_CHANNEL = 0  # like ynet.segmentation.PAD_CLASS, so padded_semantic() needs no change
+MAPS = "ethucy_semantic"  # maps.npz + index.json inside the short_term_windows folder
+NOT_ROAD, ROAD = MAP_CLASSES.index("not_road"), MAP_CLASSES.index("road")
+METRES_TOLERANCE = 1e-6  # m: the homography must give back the table's metres of the ground truth
 
 
 @dataclass(frozen=True)
@@ -77,134 +87,115 @@ SCENE_BY_STEM = {s.sgan_stem: s for s in SCENES.values()}
 SGAN_SUFFIX = {"train": "_train", "val": "_val", "test": ""}  # file name = <stem><suffix>.txt
 
 
-class ShortTermInputError(ValueError):
-    """A raw file of the short-term benchmarks that cannot be used as it is."""
+@dataclass(frozen=True)
+class EthUcyFold(ShortTermBenchmark):
+    """One leave-one-scene-out fold: windows in original pixels of each scene's grid, errors in
+    metres (the table's `x_m`, `y_m`)."""
+
+    def maps(self, windows: Path) -> Path:
+        """The scene maps and index (pixel grid, homography, swap) of the `short_term_windows`
+        folder `windows`."""
+        return Path(windows) / MAPS
+
+    def load(self, windows: Path, n_past: int, n_future: int) -> ShortTermSplits:
+        """Pixels, the test truth in metres: predictions go through each scene's homography."""
+        return splits_in_metres(self.read_table(windows), self.dataset, n_past, n_future,
+                                load_ethucy_scenes(self.maps(windows)))
+
+    def splits_in_unit(self, table: pd.DataFrame, n_past: int, n_future: int) -> ShortTermSplits:
+        """Every split from the metre columns (train, val and test alike, the truth too)."""
+        missing = [c for c in METRE_COLUMNS if c not in table.columns]
+        if missing:
+            raise ValueError(f"{self.dataset}: the window table has no metre columns {missing}")
+        train, val, test = splits_of(table.assign(x=table["x_m"], y=table["y_m"]), self.dataset,
+                                     n_past, n_future)
+        return ShortTermSplits(train, val, test, test.future, self.unit, lambda points: points)
+
+    def scene_sizes(self, windows: Path, sdd: Path | None, scene_ids: set[str]
+                    ) -> dict[str, tuple[int, int]]:
+        """Every scene's pixel grid, from the maps' index."""
+        return {name: info.image_hw for name, info in load_ethucy_scenes(self.maps(windows)).items()}
+
+    def scene_images(self, windows: Path, sdd: Path | None, cameras: Path | None
+                     ) -> Callable[[str], np.ndarray]:
+        """The camera image under `cameras` on the scene's oracle grid (`ethucy_scene_image`)."""
+        scenes = load_ethucy_scenes(self.maps(windows))
+        return lambda name: ethucy_scene_image(cameras, name, scenes[name].image_hw)
+
+    def scored_table(self, windows: Path, n_past: int, masks: SceneMasks) -> ScoredTable:
+        """Its test windows as scoring sees them: metres, the road masks (`road_masks`), collisions
+        within one SGAN sequence."""
+        return ScoredTable(self.prediction_benchmark(), self.table(windows), self.unit, n_past,
+                           self.truth_columns, self.split, masks=masks,
+                           same_start_collisions=self.same_start_collisions)
+
+
+FOLDS = {fold: EthUcyFold(f"ethucy_{fold}", f"ETH/UCY, {fold} fold", "m", METRE_COLUMNS,
+                          dataset=fold, table_file=f"ethucy_{fold}.parquet", settings_key="ethucy",
+                          same_start_collisions=True)
+         for fold in FOLD_TEST_SCENES}
+
+
+def to_metres(points: np.ndarray, scene_ids: np.ndarray,
+              scenes: dict[str, EthUcySceneInfo]) -> np.ndarray:
+    """Original pixels (N, ..., 2) of windows in scenes `scene_ids` (N,) -> metres (N, ..., 2)."""
+    points = np.asarray(points, dtype=np.float64)
+    out = np.empty_like(points)
+    for name in np.unique(scene_ids):
+        rows = scene_ids == name
+        info = scenes[str(name)]
+        out[rows] = pixels_to_metres(points[rows], info.homography, info.swap)
+    return out
+
+
+def splits_in_metres(table: pd.DataFrame, fold: str, n_past: int, n_future: int,
+                     scenes: dict[str, EthUcySceneInfo]) -> ShortTermSplits:
+    """The splits of a fold's table in original pixels, the test truth from its metre columns,
+    checked against the scenes' homographies."""
+    train, val, test = splits_of(table, fold, n_past, n_future)
+    metres = select_split(to_arrays(table.assign(x=table["x_m"], y=table["y_m"]), n_past), "test")
+    assert np.array_equal(metres.window_id, test.window_id)  # one order: window_id
+    missing = sorted(set(test.scene_id) - set(scenes))
+    if missing:
+        raise ValueError(f"{fold}: no homography for test scene(s) {missing}")
+
+    def to_unit(points: np.ndarray) -> np.ndarray:
+        return to_metres(points, test.scene_id, scenes)
+
+    worst = float(np.abs(to_unit(test.future) - metres.future).max())
+    if worst > METRES_TOLERANCE:
+        raise ValueError(f"{fold}: the scenes' homographies map the test pixels {worst:.3g} m "
+                         "away from the table's metres: tables and scene index disagree")
+    return ShortTermSplits(train, val, test, metres.future, "m", to_unit)
+
+
+def road_masks(maps_dir: Path) -> SceneMasks:
+    """The ETH/UCY road / not-road maps as class masks (NOT_ROAD where p(not road) > p(road), else
+    ROAD) on each scene's grid, positions in metres mapped through the scene's homography."""
+    maps_dir = Path(maps_dir)
+    index_path = maps_dir / "index.json"
+    resize = index_value(read_json_index(index_path), "resize", float, index_path)
+    if not 0 < resize < float("inf"):
+        raise IntermediateError(f"{index_path}: resize: expected a positive scale, got {resize}")
+    scenes = load_ethucy_scenes(maps_dir)
+    maps = load_semantic_maps(maps_dir)  # scene -> (3, h, w) probabilities
+
+    def read(name: str) -> np.ndarray:
+        probs = maps[name]
+        return np.where(probs[NOT_ROAD] > probs[ROAD], NOT_ROAD, ROAD).astype(np.uint8)
+
+    def to_pixels(points: np.ndarray, name: str) -> np.ndarray:
+        info = scenes[name]
+        pixels = metres_to_pixels(points, info.homography, info.swap)
+        return np.where(np.isfinite(pixels), pixels, -1.0)  # at infinity: outside the map
+
+    return SceneMasks(f"road / not-road maps {maps_dir.as_posix()} (oracle.png at resize "
+                      f"{resize:.4g}, through each scene's homography)", (NOT_ROAD,),
+                      ("not_road",), frozenset(set(maps) & set(scenes)), read, resize, to_pixels)
 
 
 # ---------------------------------------------------------------------------------------------
-# Reading
-
-
-def read_rows(path: Path, what: str) -> np.ndarray:
-    """(R, 4) float64 rows of a whitespace-separated text file of `what` (four numbers a line).
-
-    A line that is not four finite numbers, or a first or second column (frame, agent id) that is
-    not a whole number, is a ShortTermInputError naming the file and line.
-    """
-    lines = Path(path).read_text().splitlines()
-    rows = []
-    for number, line in enumerate(lines, start=1):
-        if not line.strip():
-            continue
-        fields = line.split()
-        try:
-            values = [float(v) for v in fields]
-        except ValueError:
-            values = []
-        if len(values) != 4 or not np.isfinite(values).all() or values[0] % 1 or values[1] % 1:
-            raise ShortTermInputError(f"{path}:{number}: expected '{what}' (4 numbers, whole frame "
-                                      f"and id), got {line!r}")
-        rows.append(values)
-    if not rows:
-        raise ShortTermInputError(f"{path}: no rows")
-    return np.asarray(rows, dtype=np.float64)
-
-
-def read_sdd_ratios(path: Path, version: str) -> dict[str, float]:
-    """`<scene>_<video>` -> metres per pixel, from `H_SDD.txt` (tab-separated, one A and one B row)."""
-    try:
-        table = pd.read_csv(path, sep="\t")
-    except (OSError, ValueError) as e:
-        raise ShortTermInputError(f"{path}: cannot be read as a tab-separated table ({e})") from e
-    missing = sorted({"File", "Version", "Ratio"} - set(table.columns))
-    if missing:
-        raise ShortTermInputError(f"{path}: lacks column(s) {missing}")
-    rows = table.loc[table["Version"] == version]
-    names = rows["File"].astype(str).str.removesuffix(".jpg")
-    ratios = pd.to_numeric(rows["Ratio"], errors="coerce")
-    if names.duplicated().any():
-        raise ShortTermInputError(f"{path}: several version-{version} rows for "
-                                  f"{sorted(names[names.duplicated()])}")
-    bad = ~(ratios > 0)
-    if bad.any():
-        raise ShortTermInputError(f"{path}: no positive ratio for {sorted(names[bad])}")
-    return dict(zip(names, ratios.astype(float)))
-
-
-# ---------------------------------------------------------------------------------------------
-# Window tables
-
-
-def number_windows(windows: pd.DataFrame, n_future: int, source: str) -> pd.DataFrame:
-    """Window ids in (scene, track, first frame) order; schema columns (`conform`), then x_m, y_m.
-
-    `windows`: one row per (window, step) with the schema's columns except window_id, t_f and
-    source, plus `window_key` (unique per window) and the metre columns.
-    """
-    firsts = (windows.loc[windows["step"] == 0, ["window_key", "scene_id", "track_id", "frame"]]
-              .sort_values(["scene_id", "track_id", "frame", "window_key"], kind="stable"))
-    ids = pd.Series(np.arange(len(firsts), dtype=np.int64), index=firsts["window_key"].to_numpy())
-    windows = windows.assign(window_id=windows["window_key"].map(ids), t_f=n_future, source=source)
-    windows = windows.sort_values(["window_id", "step"], kind="stable").reset_index(drop=True)
-    table = conform(windows)  # same (window_id, step) order: that pair is unique
-    return table.assign(**{c: windows[c].to_numpy(np.float64) for c in METRE_COLUMNS})
-
-
-def fixed_windows(rows: np.ndarray, length: int, frame_step: int, path: Path) -> np.ndarray:
-    """Rows (R, 4) of a TrajNet file -> (N, length, 4): consecutive blocks of one track each."""
-    if len(rows) % length:
-        raise ShortTermInputError(f"{path}: {len(rows)} rows are not whole windows of {length} "
-                                  f"(TrajNet files hold fixed 20-step windows: n_past + n_future)")
-    blocks = rows.reshape(-1, length, 4)
-    one_track = (blocks[:, :, 1] == blocks[:, :1, 1]).all(axis=1)
-    steady = (np.diff(blocks[:, :, 0], axis=1) == frame_step).all(axis=1)
-    bad = np.flatnonzero(~(one_track & steady))
-    if len(bad):
-        first = bad[0] * length + 1
-        raise ShortTermInputError(
-            f"{path}: rows {first}-{first + length - 1} are not one track stepping {frame_step} "
-            f"frames ({len(bad)} such window(s)); is n_past + n_future the files' window length?")
-    return blocks
-
-
-def sdd_trajnet_windows(root: Path, params: ShortTermParams) -> pd.DataFrame:
-    """The TrajNet SDD windows, train / val / test, in pixels (and metres)."""
-    ratios = read_sdd_ratios(root / SDD_RATIOS, params.sdd_ratio_version)
-    val_videos = set(params.sdd_val_videos)
-    parts = []
-    for folder, allowed, videos in (("train", {"train", "val"}, TRAIN_VIDEOS),
-                                    ("test", {"test"}, TEST_VIDEOS)):
-        paths = sorted((root / folder).glob("*.txt"))
-        if not paths:
-            raise ShortTermInputError(f"{root / folder}: no TrajNet files")
-        for path in paths:
-            video = path.stem
-            split = split_of(video, val_videos)
-            if split not in allowed:
-                raise ShortTermInputError(f"{path}: {video} is not a TrajNet {folder} video "
-                                          f"(expected one of {sorted(videos)})")
-            if video not in ratios:
-                raise ShortTermInputError(f"{root / SDD_RATIOS}: no ratio for {video} ({path})")
-            blocks = fixed_windows(read_rows(path, "frame track x y"), params.window_length,
-                                   params.sdd_frame_step, path)  # (N, L, 4)
-            n, length = blocks.shape[:2]
-            metres = blocks[:, :, 2:].reshape(-1, 2)  # (N * L, 2)
-            parts.append(pd.DataFrame({
-                "scene_id": video,
-                "track_id": blocks[:, :, 1].reshape(-1).astype(np.int64),
-                "frame": blocks[:, :, 0].reshape(-1).astype(np.int64),
-                "x": metres[:, 0] / ratios[video],
-                "y": metres[:, 1] / ratios[video],
-                "x_m": metres[:, 0],
-                "y_m": metres[:, 1],
-                "step": np.tile(np.arange(length), n),
-                "window_key": len(parts) * 10**7 + np.repeat(np.arange(n), length),
-                "split": split,
-            }))
-    missing = sorted(val_videos - {p["scene_id"].iloc[0] for p in parts})
-    if missing:
-        raise ShortTermInputError(f"{root / 'train'}: no file for validation video(s) {missing}")
-    return number_windows(pd.concat(parts, ignore_index=True), params.n_future, "trajnet")
+# Building the tables and maps (stage `short_term_windows`)
 
 
 def sgan_window_rows(rows: np.ndarray, length: int, min_agents: int, path: Path) -> np.ndarray:
@@ -309,10 +300,6 @@ def ethucy_fold_windows(sgan_root: Path, ethucy_root: Path, fold: str, params: S
     return table, n_gap
 
 
-# ---------------------------------------------------------------------------------------------
-# ETH/UCY scene maps
-
-
 def read_oracle(path: Path) -> np.ndarray:
     """The road mask (H, W) bool of `oracle.png` (values 0 / 1); ShortTermInputError names the file."""
     mask = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
@@ -372,6 +359,22 @@ def write_ethucy_maps(out: Path, release_root: Path, scenes_root: Path, scene_na
     return entries
 
 
+def on_road_fraction(tables: dict[str, pd.DataFrame], release_root: Path) -> dict[str, float]:
+    """Per scene, the share of window positions (all folds) on an oracle road pixel."""
+    positions = pd.concat([t[["scene_id", "x", "y"]] for t in tables.values()], ignore_index=True)
+    shares = {}
+    for name, group in positions.groupby("scene_id"):
+        road = read_oracle(release_root / ETHUCY_DIR / str(name) / "oracle.png")
+        col = np.clip(np.rint(group["x"].to_numpy()).astype(int), 0, road.shape[1] - 1)
+        row = np.clip(np.rint(group["y"].to_numpy()).astype(int), 0, road.shape[0] - 1)
+        shares[str(name)] = round(float(road[row, col].mean()), 4)
+    return shares
+
+
+# ---------------------------------------------------------------------------------------------
+# The scene index
+
+
 @dataclass(frozen=True)
 class EthUcySceneInfo:
     """What a consumer of the ETH/UCY windows needs besides the map (`load_semantic_maps`)."""
@@ -426,45 +429,3 @@ def ethucy_scene_image(scenes_root: Path, name: str, image_hw: tuple[int, int]) 
     canvas[:image.shape[0], :image.shape[1]] = image
     return canvas
 
-
-def on_road_fraction(tables: dict[str, pd.DataFrame], release_root: Path) -> dict[str, float]:
-    """Per scene, the share of window positions (all folds) on an oracle road pixel."""
-    positions = pd.concat([t[["scene_id", "x", "y"]] for t in tables.values()], ignore_index=True)
-    shares = {}
-    for name, group in positions.groupby("scene_id"):
-        road = read_oracle(release_root / ETHUCY_DIR / str(name) / "oracle.png")
-        col = np.clip(np.rint(group["x"].to_numpy()).astype(int), 0, road.shape[1] - 1)
-        row = np.clip(np.rint(group["y"].to_numpy()).astype(int), 0, road.shape[0] - 1)
-        shares[str(name)] = round(float(road[row, col].mean()), 4)
-    return shares
-
-
-# ---------------------------------------------------------------------------------------------
-# Stage
-
-
-def build(trajnet_root: Path, sgan_root: Path, release_root: Path, scenes_root: Path, out: Path,
-          params: ShortTermParams) -> dict:
-    """Write every table and the ETH/UCY maps into `out` (replaced atomically); returns the stats."""
-    sdd = sdd_trajnet_windows(trajnet_root, params)
-    homographies: dict[str, np.ndarray] = {}
-    ethucy, gaps = {}, {}
-    for fold in params.ethucy_folds:
-        ethucy[fold], gaps[fold] = ethucy_fold_windows(sgan_root, release_root / ETHUCY_DIR, fold,
-                                                       params, homographies)
-    with atomic_dir(out) as tmp:
-        sdd.to_parquet(tmp / "sdd_trajnet.parquet", index=False)
-        for fold, table in ethucy.items():
-            table.to_parquet(tmp / f"ethucy_{fold}.parquet", index=False)
-        maps_dir = tmp / "ethucy_semantic"
-        maps_dir.mkdir()
-        write_ethucy_maps(maps_dir, release_root, scenes_root, homographies, homographies,
-                          params.ethucy_resize)
-    return {
-        "n_past": params.n_past, "n_future": params.n_future, "fps": params.fps,
-        "t_f_seconds": params.n_future / params.fps,
-        "sdd_trajnet": count_windows(sdd, ["split"]),
-        "ethucy": {fold: count_windows(table, ["split"]) for fold, table in ethucy.items()},
-        "ethucy_windows_over_frame_gaps": gaps,
-        "ethucy_positions_on_road": on_road_fraction(ethucy, release_root),
-    }
