@@ -84,7 +84,7 @@ def test_prediction_metadata_names_the_table_and_its_columns():
                         "ks_scored": [20, 5], "extra": 1}
     assert "k" not in short_term("sdd").prediction_metadata(Path("w"), "ynet")
     assert SDD_LONG_TERM.prediction_benchmark(Path("h/tf30.parquet")) == "sdd_long_term_tf30"
-    assert IND.prediction_metadata("ynet")["benchmark"] == IND.prediction_benchmark \
+    assert IND.prediction_metadata("ynet")["benchmark"] == IND.prediction_benchmark() \
         == "ind_long_term"
 
 

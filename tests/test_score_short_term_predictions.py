@@ -328,7 +328,7 @@ def test_names_and_tables_agree_with_the_writers(tmp_path):
             == (metadata["benchmark"], table, metadata["unit"], metadata["truth_columns"])
     assert short_term("zara1").table(tmp_path).name == "ethucy_zara1.parquet"
     assert short_term("zara1").prediction_benchmark() == "short_term_ethucy_zara1"
-    assert IND.prediction_benchmark == "ind_long_term"
+    assert IND.prediction_benchmark() == "ind_long_term"
     assert IND.prediction_metadata("ynet")["benchmark"] == "ind_long_term"
 
 

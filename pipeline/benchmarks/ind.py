@@ -417,12 +417,14 @@ def write(result: IndWindows, out: Path, metrics: Path) -> None:
 class Ind(Benchmark):
     """inD: the t_f = 30 s table's test windows, in pixels of each recording's background image."""
 
-    prediction_benchmark: str = "ind_long_term"  # the benchmark a predictions file names
+    def prediction_benchmark(self) -> str:
+        """The benchmark an inD predictions file names (its windows: the t_f = 30 s table's)."""
+        return f"{self.name}_long_term"
 
     def prediction_metadata(self, model: str, table: Path | None = None, **extra) -> dict:
         """What an inD predictions file records besides its seeds (pixels of the recording's
         background image; window ids of `table`, the t_f = 30 s window table of `ind_windows`)."""
-        metadata = {"model": model, "benchmark": self.prediction_benchmark, "unit": self.unit,
+        metadata = {"model": model, "benchmark": self.prediction_benchmark(), "unit": self.unit,
                     "split": self.split}
         if table is not None:
             metadata["window_table"] = str(table)
@@ -443,7 +445,7 @@ class Ind(Benchmark):
         n_past = index_value(index, "n_past", int, path)
         if not index_value(index, "provided", bool, path):
             reason = index_value(index, "reason", str, path)
-            return ScoredTable(self.prediction_benchmark, table, self.unit, n_past,
+            return ScoredTable(self.prediction_benchmark(), table, self.unit, n_past,
                                split=self.split, metres_per_unit={},
                                scales_source=f"inD not provided: {reason}",
                                masks_absent=f"inD not provided: {reason}")
@@ -473,7 +475,7 @@ class Ind(Benchmark):
         masks = (SceneMasks(f"hand labels {ind_dir.as_posix()}/labels",
                             class_values(forbidden_classes), tuple(forbidden_classes),
                             frozenset(labelled), read) if labelled else None)
-        return ScoredTable(self.prediction_benchmark, table, self.unit, n_past, split=self.split,
+        return ScoredTable(self.prediction_benchmark(), table, self.unit, n_past, split=self.split,
                            metres_per_unit=scales,
                            scales_source=f"per recording, orthoPxToMeter x {background:g} ({path})",
                            masks=masks, masks_absent=None if labelled else
