@@ -84,10 +84,10 @@ YNET_HEAD = json.dumps({"n_past": 8, "settings": {
 
 
 def test_run_digest_gives_the_values_of_the_hashes_it_replaced():
-    """Pinned to what the three copies it replaced returned on these inputs (computed with them
-    before they went): the baselines' `common.fingerprint(7, a, b)`, Y-net's `run_fingerprint`,
-    whose settings part is `YNET_HEAD`, and the windows part of inD's run stamp (its maps were
-    hashed without their names, so only a digest without maps is the same)."""
+    """Pinned to what two of the copies it replaced returned on these inputs (computed with them
+    before they went): the baselines' `common.fingerprint(7, a, b)` and Y-net's `run_fingerprint`,
+    whose settings part is `YNET_HEAD`. inD's run stamp, the third, hashed its maps without their
+    names and is gone with its resume scheme (Y-net's identity covers inD's runs)."""
     a, b = windows(0), windows(1)
     assert (checkpoints.run_digest("7", a, b)
             == "f7314d8686d676eed225523aa28005fad9d997aaa7a603c7adbec1cd103671a9")

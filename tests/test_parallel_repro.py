@@ -147,14 +147,14 @@ def test_stages_with_more_threads_or_one_job_run_one_at_a_time(project):
     assert not overlap(interval(project, "left"), interval(project, "right"))
 
 
-def test_a_stage_meta_threads_decides_over_the_params_it_passes_on(monkeypatch):
+def test_a_stage_meta_threads_decides_over_the_params_it_passes_on():
     class Stage:
         meta = {"threads": 1}
 
-    monkeypatch.setattr(parallel_repro, "params_of", lambda stage: {"eval.cpu": {"threads": 2}})
-    assert parallel_repro.sharing(parallel_repro.declared_threads(Stage())) == SHARED
+    params = {"eval.cpu": {"threads": 2}}
+    assert parallel_repro.sharing(parallel_repro.declared_threads(Stage(), params)) == SHARED
     Stage.meta = None  # no meta: the params decide
-    assert parallel_repro.sharing(parallel_repro.declared_threads(Stage())) == ALONE
+    assert parallel_repro.sharing(parallel_repro.declared_threads(Stage(), params)) == ALONE
 
 
 @pytest.mark.parametrize("threads", [1, 2])

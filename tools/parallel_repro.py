@@ -341,8 +341,10 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         # dvc's graph has an edge from a stage to each stage that produces one of its deps
         upstream = {name: {dep.addressing for dep in graph.successors(stage)} & set(stages)
                     for name, stage in stages.items()}
-        declared = {name: (sharing(declared_threads(stage)), declared_device(stage),
-                           meta_of(stage).get("memory_gb")) for name, stage in stages.items()}
+        params = {name: params_of(stage) for name, stage in stages.items()}  # read once each
+        declared = {name: (sharing(declared_threads(stage, params[name])),
+                           declared_device(params[name]), meta_of(stage).get("memory_gb"))
+                    for name, stage in stages.items()}
 
     cloudpickle.register_pickle_by_value(stage_worker)  # workers need not import tools/
     cluster = start_local_cluster(jobs) if address is None else None
@@ -525,20 +527,21 @@ def meta_of(stage) -> Mapping[str, object]:
     return stage.meta if isinstance(stage.meta, Mapping) else {}
 
 
-def declared_threads(stage) -> dict[str, object]:
+def declared_threads(stage, params: Mapping[str, object]) -> Mapping[str, object]:
     """What `sharing` reads of a stage: its dvc.yaml `meta: {threads: N}` if it has one (what a
     data step says of itself; a data step may declare another stage's `threads` param to pass it
-    on, as ynet_slot_scoring does), else its declared params."""
+    on, as ynet_slot_scoring does), else its declared params (`params_of`)."""
     meta = meta_of(stage)
-    return {"meta.threads": meta["threads"]} if "threads" in meta else params_of(stage)
+    return {"meta.threads": meta["threads"]} if "threads" in meta else params
 
 
-def declared_device(stage) -> object:
-    """The stage's declared `runtime.device` param (None if it declares none: it runs no torch)."""
-    runtime = params_of(stage).get("runtime")
+def declared_device(params: Mapping[str, object]) -> object:
+    """The `runtime.device` among a stage's declared params (`params_of`; None if it declares
+    none: it runs no torch)."""
+    runtime = params.get("runtime")
     if isinstance(runtime, Mapping):
         return runtime.get("device")
-    return params_of(stage).get("runtime.device")
+    return params.get("runtime.device")
 
 
 def params_of(stage) -> dict[str, object]:

@@ -8,7 +8,7 @@
 # Each worktree's params.yaml: short_term_models.cpu.epochs sgan {sdd: 2, ethucy: 1}, ynet
 # {sdd: 32, ethucy: 1}; data/ links to a checkout's data/{short_term,raw,horizon_windows,windows,
 # labels,ind}; checkpoints/pecnet_tf5 a trained PECNet; PREDICTIONS/long_term/tf<H>/ the stored
-# long-term predictions of a make repro. Compare: benchmarks_identity_compare.py OLD_OUT NEW_OUT.
+# long-term predictions of a make repro. Compare: identity_compare.py OLD_OUT NEW_OUT.
 set -x
 PY=${PY:-python}
 LOW_MEMORY="env GLIBC_TUNABLES=glibc.malloc.mmap_threshold=4294967296:glibc.malloc.trim_threshold=17179869184"

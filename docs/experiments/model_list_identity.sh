@@ -1,6 +1,6 @@
 #!/bin/bash
 # Old (main) vs new (wt-models) code on the same inputs: long-term baseline scoring and training.
-# Usage: edit the two roots (before / after) and CK (baseline checkpoints of a finished make repro), then run; compare with model_list_identity_compare.py.
+# Usage: edit the two roots (before / after) and CK (baseline checkpoints of a finished make repro), then run; compare with identity_compare.py OLD NEW.
 set -u
 HW=/work/main/data/horizon_windows
 CK=/work/wt-clock/checkpoints

@@ -1,9 +1,10 @@
-"""Old vs new outputs of `benchmarks_identity.sh`: every file byte-identical, or identical but for
-the output folder's own name (a predictions file records its checkpoint folder: its columns and
-its metadata, with one folder's name replaced by the other's, are compared), or, where
-a file records how long it took (JSON, torch checkpoints), identical but for those timings.
+"""Old vs new outputs of an identity check (`model_list_identity.sh`, `benchmarks_identity.sh`):
+every file byte-identical, or identical but for the output folder's own name (a predictions file
+records its checkpoint folder: its columns and its metadata, with one folder's name replaced by
+the other's, are compared), or, where a file records how long it took (JSON, CSV, torch
+checkpoints), identical but for those timings.
 
-    python docs/experiments/benchmarks_identity_compare.py OLD_DIR NEW_DIR
+    python docs/experiments/identity_compare.py OLD_DIR NEW_DIR
 """
 import json
 import sys
