@@ -164,6 +164,27 @@ class FakeClient:
         return {"address": "tcp://127.0.0.1:8786", "services": self.services}
 
 
+def test_the_local_cluster_does_not_profile_and_samples_its_monitors_seldom(gpu_cluster):
+    """Dask's own periodic work competes with the stages for the cores: off or seldom, in the
+    in-process worker (no GPU) and in worker processes (GPUs) alike."""
+    def periodic(dask_worker):
+        return {name: callback.callback_time
+                for name, callback in dask_worker.periodic_callbacks.items()}
+
+    in_process = parallel_repro.start_local_cluster(2, gpus=[])
+    try:
+        every = [periodic(in_process.workers[0])]
+    finally:
+        in_process.close()
+    from distributed import Client
+    with Client(gpu_cluster, set_as_default=False) as client:
+        every += list(client.run(periodic).values())
+    for callbacks in every:
+        assert "profile" not in callbacks and "profile-cycle" not in callbacks
+        assert callbacks["tick"] >= 1000 and callbacks["monitor"] >= 5000
+        assert callbacks["memory_monitor"] >= 5000
+
+
 def test_the_run_says_where_the_scheduler_and_its_dashboard_are():
     offered = {"w1": {"threads": 8, "GPU": 1}}
     with_one = parallel_repro.cluster_line(FakeClient({"dashboard": 8787}), offered)

@@ -203,6 +203,19 @@ def machine_gpus() -> list[str]:
     return visible_gpus(os.environ.get("CUDA_VISIBLE_DEVICES"), listing)
 
 
+# Dask's own periodic work, sampled seldom on the local cluster: the workers' statistical profiler
+# (every 10 ms by default), event-loop health ticks (20 ms), the system monitor (0.5 s, the
+# dashboard's machine plots) and the memory monitor (0.1 s). Nothing here uses them (a task only
+# waits on a child process), and at their defaults an idle local cluster took about 4.6 % of a
+# core from the stages beside it, at these about 0.5 % (docs/experiments/2026-11-28-dask-runner.md).
+QUIET_LOCAL_CLUSTER = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "5s",
+}
+
+
 def start_local_cluster(cores: int, gpus: list[str] | None = None):
     """The default cluster: `local_worker_specs` of this machine (its `machine_gpus` unless
     `gpus` says). Without GPUs its one worker runs in this process (its tasks only wait on child
@@ -214,7 +227,7 @@ def start_local_cluster(cores: int, gpus: list[str] | None = None):
     gpus = machine_gpus() if gpus is None else gpus
     dashboard = ":0"  # a free port (None would mean 8787, maybe taken); its plots need bokeh
     specs = local_worker_specs(cores, gpus, psutil.virtual_memory().total / 2**30)
-    with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1, **QUIET_LOCAL_CLUSTER}):
         if not gpus:
             return LocalCluster(n_workers=1, threads_per_worker=specs[0]["nthreads"],
                                 resources=specs[0]["resources"], processes=False,
@@ -328,6 +341,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
     command's). `on_stage_done(name, seconds)` follows each lock update. Raises SetupError before
     anything is written if the cluster cannot run these stages."""
     import cloudpickle
+    import dask
     from distributed import Client
     from dvc.repo import Repo, lock_repo
     from dvc.repo.reproduce import collect_stages, plan_repro
@@ -349,8 +363,11 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
     cloudpickle.register_pickle_by_value(stage_worker)  # workers need not import tools/
     cluster = start_local_cluster(jobs) if address is None else None
     try:
-        client = (Client(cluster, set_as_default=False) if cluster is not None
-                  else connect(address, connect_timeout))
+        if cluster is not None:
+            with dask.config.set(QUIET_LOCAL_CLUSTER):
+                client = Client(cluster, set_as_default=False)
+        else:
+            client = connect(address, connect_timeout)
     except BaseException:
         if cluster is not None:
             cluster.close()

@@ -1,25 +1,29 @@
 #!/bin/bash
 # make repro's runner before (44fff97, home-made loop) and after (Dask): the same 4 forced
-# Run from a worktree of the commit under test; compares against the runner of commit 44fff97.
 # single-threaded stages, 2 at once, alternated; wall seconds and the stages' dvc.lock entries.
+# Runs in /work/wt-bench, a worktree of the commit under test;
+# usage: dask_runner_trainings.sh [LOG_FOLDER] [ROUNDS].
+LOGS=${1:-/work/runs/daskbench}
+ROUNDS=${2:-2}
+mkdir -p "$LOGS"
 cd /work/wt-bench
 export PATH=/work/wt-bench/.venv/bin:$PATH
 STAGES="train_baseline@sgan-40 train_baseline@sgan-50 train_baseline@pecnet-40 train_baseline@pecnet-50"
-for round in 1 2; do
+for round in $(seq "$ROUNDS"); do
   for side in new old; do
     git checkout -q HEAD -- tools/
     [ $side = old ] && git checkout -q 44fff97 -- tools/parallel_repro.py tools/timed_repro.py && rm -f tools/stage_worker.py
     rm -rf checkpoints/sgan_tf40 checkpoints/sgan_tf50 checkpoints/pecnet_tf40 checkpoints/pecnet_tf50
     start=$(date +%s.%N)
-    python tools/timed_repro.py --jobs 2 -f -s $STAGES > /work/runs/daskbench/$side-$round.log 2>&1
+    python tools/timed_repro.py --jobs 2 -f -s $STAGES > "$LOGS"/$side-$round.log 2>&1
     rc=$?
     end=$(date +%s.%N)
     python3 -c "
 import yaml,json
 lock=yaml.safe_load(open('dvc.lock'))['stages']
-print(json.dumps({s: [o['md5'] for o in lock[s]['outs']] for s in '$STAGES'.split()}))" > /work/runs/daskbench/$side-$round.lock.json
-    echo "$side round $round rc=$rc wall=$(python3 -c "print(round($end-$start,1))")" >> /work/runs/daskbench/times.txt
+print(json.dumps({s: [o['md5'] for o in lock[s]['outs']] for s in '$STAGES'.split()}))" > "$LOGS"/$side-$round.lock.json
+    echo "$side round $round rc=$rc wall=$(python3 -c "print(round($end-$start,1))")" >> "$LOGS"/times.txt
     git checkout -q HEAD -- tools/ dvc.lock
   done
 done
-echo done >> /work/runs/daskbench/times.txt
+echo done >> "$LOGS"/times.txt
