@@ -3,6 +3,7 @@ stages run two at a time, with the lock a serial `dvc repro` would write. The in
 build a four-stage DVC project in a temp folder: prep -> (left, right) -> join, where left and
 right sleep and record when they ran."""
 
+import contextlib
 import json
 import os
 import subprocess
@@ -236,3 +237,52 @@ def test_output_beside_other_stages_is_labelled_and_progress_bars_thinned(capsys
         "[train@a] train:  20%|",  # the bar's latest state when first seen
         "[train@a] train:  30%|",  # 25 % came within 30 s of 20 %: not shown; a finished line is
         "[train@a] epoch 2: loss 3.0"]
+
+
+LOCK = """\
+schema: '2.0'
+stages:
+  # a comment DVC keeps
+  prep:
+    cmd: python -c "open('prep.txt', 'w')"
+    outs:
+    - path: prep.txt
+      md5: 9dd4e461268c8034f5c8564e155c67a6
+      size: 1
+      ratio: 0.001
+"""
+
+
+def test_the_lock_just_dumped_is_not_parsed_again_and_the_same_bytes_are_written(tmp_path,
+                                                                                 monkeypatch):
+    from dvc.utils.serialize import _yaml, modify_yaml
+
+    def updates(path: Path, with_cache: bool) -> int:
+        parses = []
+        real_parse = _yaml.parse_yaml_for_update
+        monkeypatch.setattr(_yaml, "parse_yaml_for_update",
+                            lambda text, where: parses.append(where) or real_parse(text, where))
+        path.write_text(LOCK)
+        with parallel_repro.lock_parsed_once() if with_cache else contextlib.nullcontext():
+            for step in range(4):
+                with modify_yaml(path) as data:
+                    data["stages"][f"stage{step}"] = {"cmd": f"run {step}", "outs": [
+                        {"path": f"out{step}", "md5": f"{step:032x}", "size": step, "ratio": 0.1}]}
+                    data["stages"]["prep"]["outs"][0]["size"] = step
+            path.write_text(path.read_text() + "# edited by hand\n")  # another text: parsed
+            with modify_yaml(path) as data:
+                data["stages"]["prep"]["cmd"] = "again"
+            with pytest.raises(RuntimeError), modify_yaml(path) as data:  # an update that fails
+                data["stages"]["prep"]["cmd"] = "half-done"
+                raise RuntimeError
+            with modify_yaml(path) as data:  # after it: parsed again, not the half-changed data
+                data["stages"]["join"] = {"cmd": "join"}
+        monkeypatch.setattr(_yaml, "parse_yaml_for_update", real_parse)
+        return len(parses)
+
+    plain, cached = tmp_path / "plain.lock", tmp_path / "cached.lock"
+    assert updates(plain, with_cache=False) == 7
+    assert updates(cached, with_cache=True) == 3  # the first, the hand-edited text, after the failure
+    assert cached.read_bytes() == plain.read_bytes()
+    assert "half-done" not in cached.read_text() and "a comment DVC keeps" in cached.read_text()
+    assert _yaml.parse_yaml_for_update.__name__ == "parse_yaml_for_update"  # put back

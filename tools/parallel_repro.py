@@ -58,7 +58,9 @@ from __future__ import annotations
 
 import argparse
 import codecs
+import contextlib
 import importlib.util
+import io
 import os
 import re
 import shutil
@@ -313,6 +315,40 @@ def cluster_line(client, offered: Mapping[str, Mapping[str, float]]) -> str:
             f"dashboard: {dashboard}")
 
 
+@contextlib.contextmanager
+def lock_parsed_once():
+    """DVC records each finished stage by reading the whole dvc.lock round-trip (ruamel, comments
+    kept), changing the stage's entry and dumping the whole file again: for our ~225-stage lock
+    some 2-3.5 s of parsing and 1.5 s of dumping, in the driver, while the stages beside it want
+    the cores. Here one process writes the lock, so the text it reads next is the text it just
+    dumped: within this context the data just dumped is handed back for exactly that text instead
+    of parsing it again (once: a failed update in between leaves nothing to hand back). The dump
+    itself is DVC's, unchanged, so the same bytes are written."""
+    from dvc.utils.serialize import _yaml
+
+    parse, dump = _yaml.parse_yaml_for_update, _yaml._dump
+    last: list[tuple[str, object]] = []  # (text dumped, the data it was dumped from)
+
+    def dump_remembered(data, stream):
+        text = io.StringIO()
+        result = dump(data, text)
+        stream.write(text.getvalue())
+        last[:] = [(text.getvalue(), data)]
+        return result
+
+    def parse_unless_just_dumped(text, path):
+        if last and last[0][0] == text:
+            return last.pop()[1]
+        last.clear()
+        return parse(text, path)
+
+    _yaml.parse_yaml_for_update, _yaml._dump = parse_unless_just_dumped, dump_remembered
+    try:
+        yield
+    finally:
+        _yaml.parse_yaml_for_update, _yaml._dump = parse, dump
+
+
 class LogTail:
     """A stage's log file read as it grows (`read1`, as `echo_output` reads a pipe): returns b""
     only once `done` is set and everything written has been read."""
@@ -387,7 +423,7 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         client.register_plugin(stage_worker.StageCommands(), name=stage_worker.PLUGIN_NAME)
         prefix = sum(int(offer.get("threads", 1)) for offer in offered.values()) > 1
         runner = StageRunner(client, repo, stages, wanted, force, prefix, on_stage_done)
-        with client.as_current():  # distributed.wait looks for it there
+        with client.as_current(), lock_parsed_once():  # distributed.wait looks for it there
             return runner.run(list(stages), upstream)
     finally:
         client.close()
