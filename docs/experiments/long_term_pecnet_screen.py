@@ -16,7 +16,7 @@ ADE and FDE per sigma and round.
 
 `train` is the stage's training (`pecnet.<profile>`, `train_baseline.seed`, one thread,
 `data/horizon_windows/tf<t_f>.parquet`) with only `kl_weight` (and `--data-scale`, `--epochs` if
-given) changed, into a fresh folder, and writes `<out>.json` with the validation curve and the
+given) changed, into a fresh folder `<out>`, and writes `<out>.json` with the validation curve and the
 likelihood width sigma_px = sqrt(batch_size * kl_weight) / data_scale
 (`pipeline.harness.baselines.pecnet`'s "Loss balance").
 """
@@ -134,7 +134,7 @@ def main() -> None:
     else:
         record = train_width(args.horizon, args.kl_weight, args.data_scale, args.epochs, args.out,
                              args.tables, params)
-        write_json(record, args.out.with_suffix(".json"))
+        write_json(record, args.out.parent / f"{args.out.name}.json")  # "kl0.004": no suffix cut
 
 
 if __name__ == "__main__":
