@@ -282,7 +282,7 @@ def test_the_lock_just_dumped_is_not_parsed_again_and_the_same_bytes_are_written
 
     plain, cached = tmp_path / "plain.lock", tmp_path / "cached.lock"
     assert updates(plain, with_cache=False) == 7
-    assert updates(cached, with_cache=True) == 3  # the first, the hand-edited text, after the failure
+    assert updates(cached, with_cache=True) == 3  # the first, the hand-edited, after the failure
     assert cached.read_bytes() == plain.read_bytes()
     assert "half-done" not in cached.read_text() and "a comment DVC keeps" in cached.read_text()
     assert _yaml.parse_yaml_for_update.__name__ == "parse_yaml_for_update"  # put back

@@ -1,6 +1,6 @@
-"""Table 3's PECNet FDE, screened on validation: does the spread of PECNet's endpoints (the test-time
-truncation sigma, or the likelihood width it is trained with) explain ours being far above the
-Y-net authors' retrain? Validation windows only: the test split is never read.
+"""Table 3's PECNet FDE, screened on validation: does the spread of PECNet's endpoints (the
+test-time truncation sigma, or the likelihood width it is trained with) explain ours being far
+above the Y-net authors' retrain? Validation windows only: the test split is never read.
 
     # the test-time sigma of a trained folder (nothing trains)
     python docs/experiments/long_term_pecnet_screen.py sigma --folder checkpoints/pecnet_tf30 \
@@ -16,8 +16,8 @@ ADE and FDE per sigma and round.
 
 `train` is the stage's training (`pecnet.<profile>`, `train_baseline.seed`, one thread,
 `data/horizon_windows/tf<t_f>.parquet`) with only `kl_weight` (and `--data-scale`, `--epochs` if
-given) changed, into a fresh folder `<out>`, and writes `<out>.json` with the validation curve and the
-likelihood width sigma_px = sqrt(batch_size * kl_weight) / data_scale
+given) changed, into a fresh folder `<out>`, and writes `<out>.json` with the validation curve and
+the likelihood width sigma_px = sqrt(batch_size * kl_weight) / data_scale
 (`pipeline.harness.baselines.pecnet`'s "Loss balance").
 """
 
@@ -73,7 +73,8 @@ def sigma_screen(folder: Path, horizon: int, sigmas: list[float], rounds: int, t
         per_sigma[str(sigma)] = {"ade": float(ade.mean()), "fde": float(fde.mean()),
                                  "ade_rounds": ade.tolist(), "fde_rounds": fde.tolist()}
         print(f"{folder.name} sigma {sigma}: val ADE {ade.mean():.2f} FDE {fde.mean():.2f} px "
-              f"(rounds {ade.min():.2f}-{ade.max():.2f} / {fde.min():.2f}-{fde.max():.2f})", flush=True)
+              f"(rounds {ade.min():.2f}-{ade.max():.2f} / {fde.min():.2f}-{fde.max():.2f})",
+              flush=True)
     model.config = trained
     return {"folder": str(folder), "horizon": horizon, "k": k, "rounds": rounds, "n_val": len(val),
             "trained_sigma": trained.sigma, "kl_weight": trained.kl_weight,
@@ -105,7 +106,8 @@ def train_width(horizon: int, kl_weight: float, data_scale: float | None, epochs
               "best_epoch": result.best_epoch, "best_val_ade": result.best_val_ade,
               "val_ade": [e["val_ade"] for e in result.history],
               "train_seconds": result.train_seconds, "wall_seconds": time.perf_counter() - t0}
-    print(f"{out.name}: sigma_px {record['sigma_px']:.1f}, best val ADE {result.best_val_ade:.2f} px "
+    print(f"{out.name}: sigma_px {record['sigma_px']:.1f}, "
+          f"best val ADE {result.best_val_ade:.2f} px "
           f"at epoch {result.best_epoch} of {facts['epochs']}", flush=True)
     return record
 
@@ -129,7 +131,8 @@ def main() -> None:
     params = read_params()
     torch.set_num_threads(1)
     if args.command == "sigma":
-        record = sigma_screen(args.folder, args.horizon, args.sigmas, args.rounds, args.tables, params)
+        record = sigma_screen(args.folder, args.horizon, args.sigmas, args.rounds, args.tables,
+                              params)
         write_json(record, args.out)
     else:
         record = train_width(args.horizon, args.kl_weight, args.data_scale, args.epochs, args.out,
