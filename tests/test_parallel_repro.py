@@ -277,12 +277,18 @@ def test_the_lock_just_dumped_is_not_parsed_again_and_the_same_bytes_are_written
                 raise RuntimeError
             with modify_yaml(path) as data:  # after it: parsed again, not the half-changed data
                 data["stages"]["join"] = {"cmd": "join"}
+            twin = path.with_name("twin-" + path.name)  # the same text in another file: parsed
+            twin.write_text(path.read_text())
+            with modify_yaml(twin) as data:
+                data["stages"]["twin"] = {"cmd": "twin"}
         monkeypatch.setattr(_yaml, "parse_yaml_for_update", real_parse)
         return len(parses)
 
     plain, cached = tmp_path / "plain.lock", tmp_path / "cached.lock"
-    assert updates(plain, with_cache=False) == 7
-    assert updates(cached, with_cache=True) == 3  # the first, the hand-edited, after the failure
+    assert updates(plain, with_cache=False) == 8
+    assert updates(cached, with_cache=True) == 4  # first, hand-edited, after the failure, twin
     assert cached.read_bytes() == plain.read_bytes()
+    twins = [(tmp_path / f"twin-{name}.lock").read_bytes() for name in ("plain", "cached")]
+    assert twins[0] == twins[1]
     assert "half-done" not in cached.read_text() and "a comment DVC keeps" in cached.read_text()
     assert _yaml.parse_yaml_for_update.__name__ == "parse_yaml_for_update"  # put back

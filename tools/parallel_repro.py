@@ -321,25 +321,30 @@ def lock_parsed_once():
     kept), changing the stage's entry and dumping the whole file again: for our ~225-stage lock
     some 2-3.5 s of parsing and 1.5 s of dumping, in the driver, while the stages beside it want
     the cores. Here one process writes the lock, so the text it reads next is the text it just
-    dumped: within this context the data just dumped is handed back for exactly that text instead
-    of parsing it again (once: a failed update in between leaves nothing to hand back). The dump
-    itself is DVC's, unchanged, so the same bytes are written."""
+    dumped: within this context the data just dumped to a file is handed back for exactly that
+    file and text instead of parsing it again (once: a failed update in between, or any other
+    file written, leaves nothing to hand back). The dump itself is DVC's, unchanged, so the same
+    bytes are written."""
     from dvc.utils.serialize import _yaml
 
     parse, dump = _yaml.parse_yaml_for_update, _yaml._dump
-    last: list[tuple[str, object]] = []  # (text dumped, the data it was dumped from)
+    last: dict[str, tuple[str, object]] = {}  # file -> (text dumped there, the data dumped)
 
     def dump_remembered(data, stream):
         text = io.StringIO()
         result = dump(data, text)
         stream.write(text.getvalue())
-        last[:] = [(text.getvalue(), data)]
+        last.clear()
+        name = getattr(stream, "name", None)
+        if isinstance(name, (str, os.PathLike)):  # a file, not a buffer
+            last[os.path.abspath(name)] = (text.getvalue(), data)
         return result
 
     def parse_unless_just_dumped(text, path):
-        if last and last[0][0] == text:
-            return last.pop()[1]
+        kept = last.pop(os.path.abspath(os.fspath(path)), None)
         last.clear()
+        if kept is not None and kept[0] == text:
+            return kept[1]
         return parse(text, path)
 
     _yaml.parse_yaml_for_update, _yaml._dump = parse_unless_just_dumped, dump_remembered
