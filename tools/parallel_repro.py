@@ -4,7 +4,10 @@ DVC stays the judge, in this one process (the driver) and one stage at a time: D
 objects check staleness, remove the outputs, restore from the run cache, save the deps, and after
 the command hash, commit and write dvc.lock (`prepare` and `commit` below). Only the commands run
 on the cluster: each stage's commands become one task, submitted once every stage it depends on
-has finished, as with `dvc repro`; outputs and `dvc.lock` are therefore a serial run's.
+has finished, as with `dvc repro`; outputs and `dvc.lock` are therefore a serial run's. The
+driver's CPU comes out of the stages' on a small machine, so it is kept light: the local cluster's
+own monitors run seldom (`QUIET_LOCAL_CLUSTER`) and dvc.lock, which DVC rewrites after each stage,
+is not parsed again right after the driver wrote it (`lock_parsed_once`).
 
 Resources (Dask worker resources decide where and beside what a task runs):
 - `threads`: a worker offers its thread budget. A single-threaded stage asks for 1; any other asks
@@ -428,7 +431,8 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         client.register_plugin(stage_worker.StageCommands(), name=stage_worker.PLUGIN_NAME)
         prefix = sum(int(offer.get("threads", 1)) for offer in offered.values()) > 1
         runner = StageRunner(client, repo, stages, wanted, force, prefix, on_stage_done)
-        with client.as_current(), lock_parsed_once():  # distributed.wait looks for it there
+        # as_current: distributed.wait looks for the client there
+        with client.as_current(), lock_parsed_once():
             return runner.run(list(stages), upstream)
     finally:
         client.close()
