@@ -83,9 +83,11 @@ def sigma_screen(folder: Path, horizon: int, sigmas: list[float], rounds: int, t
 
 
 def train_width(horizon: int, kl_weight: float, data_scale: float | None, epochs: int | None,
-                out: Path, tables: Path, params: dict) -> dict:
-    """The stage's run with only the likelihood width (and epochs) changed; its validation curve."""
-    seed = load_section(TrainBaselineParams, "train_baseline", params).seed
+                seed: int | None, out: Path, tables: Path, params: dict) -> dict:
+    """The stage's run with only the likelihood width (and epochs, the seed) changed; its
+    validation curve. `seed` None: the stage's (`train_baseline.seed`)."""
+    if seed is None:
+        seed = load_section(TrainBaselineParams, "train_baseline", params).seed
     n_past = load_section(WindowParams, "windows", params).n_past
     arrays = load_windows(tables / f"tf{horizon}.parquet", n_past, horizon)
     changes = {"kl_weight": kl_weight}
@@ -123,6 +125,7 @@ def main() -> None:
     width.add_argument("--kl-weight", type=float, required=True)
     width.add_argument("--data-scale", type=float)
     width.add_argument("--epochs", type=int)
+    width.add_argument("--seed", type=int, help="training seed (default train_baseline.seed)")
     for command in (sigma, width):
         command.add_argument("--horizon", type=int, default=30)
         command.add_argument("--tables", type=Path, default=Path("data/horizon_windows"))
@@ -135,8 +138,8 @@ def main() -> None:
                               params)
         write_json(record, args.out)
     else:
-        record = train_width(args.horizon, args.kl_weight, args.data_scale, args.epochs, args.out,
-                             args.tables, params)
+        record = train_width(args.horizon, args.kl_weight, args.data_scale, args.epochs, args.seed,
+                             args.out, args.tables, params)
         write_json(record, args.out.parent / f"{args.out.name}.json")  # "kl0.004": no suffix cut
 
 
