@@ -259,9 +259,13 @@ def test_the_lock_just_dumped_is_not_parsed_again_and_the_same_bytes_are_written
 
     def updates(path: Path, with_cache: bool) -> int:
         parses = []
-        real_parse = _yaml.parse_yaml_for_update
-        monkeypatch.setattr(_yaml, "parse_yaml_for_update",
-                            lambda text, where: parses.append(where) or real_parse(text, where))
+        real_parse, real_dump = _yaml.parse_yaml_for_update, _yaml._dump
+
+        def counting(text, where):
+            parses.append(where)
+            return real_parse(text, where)
+
+        monkeypatch.setattr(_yaml, "parse_yaml_for_update", counting)
         path.write_text(LOCK)
         with parallel_repro.lock_parsed_once() if with_cache else contextlib.nullcontext():
             for step in range(4):
@@ -281,6 +285,8 @@ def test_the_lock_just_dumped_is_not_parsed_again_and_the_same_bytes_are_written
             twin.write_text(path.read_text())
             with modify_yaml(twin) as data:
                 data["stages"]["twin"] = {"cmd": "twin"}
+        # put back as they were on entry
+        assert (_yaml.parse_yaml_for_update, _yaml._dump) == (counting, real_dump)
         monkeypatch.setattr(_yaml, "parse_yaml_for_update", real_parse)
         return len(parses)
 
@@ -291,4 +297,3 @@ def test_the_lock_just_dumped_is_not_parsed_again_and_the_same_bytes_are_written
     twins = [(tmp_path / f"twin-{name}.lock").read_bytes() for name in ("plain", "cached")]
     assert twins[0] == twins[1]
     assert "half-done" not in cached.read_text() and "a comment DVC keeps" in cached.read_text()
-    assert _yaml.parse_yaml_for_update.__name__ == "parse_yaml_for_update"  # put back

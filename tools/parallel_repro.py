@@ -211,8 +211,8 @@ def machine_gpus() -> list[str]:
 # Dask's own periodic work, sampled seldom on the local cluster: the workers' statistical profiler
 # (every 10 ms by default), event-loop health ticks (20 ms), the system monitor (0.5 s, the
 # dashboard's machine plots) and the memory monitor (0.1 s). Nothing here uses them (a task only
-# waits on a child process), and at their defaults an idle local cluster took about 4.6 % of a
-# core from the stages beside it, at these about 0.5 % (docs/experiments/2026-11-28-dask-runner.md).
+# waits on a child process), and at their defaults an idle local cluster takes some 5 % of a core
+# from the stages beside it, at these 0.5 % (docs/experiments/dask_runner_idle.py).
 QUIET_LOCAL_CLUSTER = {
     "distributed.worker.profile.enabled": False,
     "distributed.admin.tick.interval": "1s",
@@ -331,23 +331,24 @@ def lock_parsed_once():
     from dvc.utils.serialize import _yaml
 
     parse, dump = _yaml.parse_yaml_for_update, _yaml._dump
-    last: dict[str, tuple[str, object]] = {}  # file -> (text dumped there, the data dumped)
+    last = None  # (file, text dumped there, the data dumped), until the next parse
 
     def dump_remembered(data, stream):
-        text = io.StringIO()
-        result = dump(data, text)
-        stream.write(text.getvalue())
-        last.clear()
+        nonlocal last
+        buffer = io.StringIO()
+        result = dump(data, buffer)
+        text = buffer.getvalue()
+        stream.write(text)
         name = getattr(stream, "name", None)
-        if isinstance(name, (str, os.PathLike)):  # a file, not a buffer
-            last[os.path.abspath(name)] = (text.getvalue(), data)
+        last = ((os.path.abspath(name), text, data) if isinstance(name, (str, os.PathLike))
+                else None)  # a file, not a buffer
         return result
 
     def parse_unless_just_dumped(text, path):
-        kept = last.pop(os.path.abspath(os.fspath(path)), None)
-        last.clear()
-        if kept is not None and kept[0] == text:
-            return kept[1]
+        nonlocal last
+        kept, last = last, None
+        if kept is not None and kept[:2] == (os.path.abspath(path), text):
+            return kept[2]
         return parse(text, path)
 
     _yaml.parse_yaml_for_update, _yaml._dump = parse_unless_just_dumped, dump_remembered
@@ -385,7 +386,6 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
     command's). `on_stage_done(name, seconds)` follows each lock update. Raises SetupError before
     anything is written if the cluster cannot run these stages."""
     import cloudpickle
-    import dask
     from distributed import Client
     from dvc.repo import Repo, lock_repo
     from dvc.repo.reproduce import collect_stages, plan_repro
@@ -407,11 +407,8 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
     cloudpickle.register_pickle_by_value(stage_worker)  # workers need not import tools/
     cluster = start_local_cluster(jobs) if address is None else None
     try:
-        if cluster is not None:
-            with dask.config.set(QUIET_LOCAL_CLUSTER):
-                client = Client(cluster, set_as_default=False)
-        else:
-            client = connect(address, connect_timeout)
+        client = (Client(cluster, set_as_default=False) if cluster is not None
+                  else connect(address, connect_timeout))
     except BaseException:
         if cluster is not None:
             cluster.close()

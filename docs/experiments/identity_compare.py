@@ -43,9 +43,9 @@ def same_but_folder(path: Path, other: Path, old: Path, new: Path) -> bool:
     a, b = pq.read_table(path), pq.read_table(other)
     meta = {k: v.replace(str(old).encode(), str(new).encode())
             for k, v in (a.schema.metadata or {}).items() if k != b"ARROW:schema"}
-    return (a.drop_columns([]).cast(b.schema.remove_metadata()).equals(b.drop_columns([]).cast(
-        b.schema.remove_metadata())) and meta == {k: v for k, v in (b.schema.metadata or {}).items()
-                                                   if k != b"ARROW:schema"})
+    columns = b.schema.remove_metadata()
+    other_meta = {k: v for k, v in (b.schema.metadata or {}).items() if k != b"ARROW:schema"}
+    return a.cast(columns).equals(b.cast(columns)) and meta == other_meta
 
 
 def same_csv(path: Path, other: Path) -> bool:

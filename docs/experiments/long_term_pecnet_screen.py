@@ -49,15 +49,16 @@ def likelihood_width(config) -> float:
     return math.sqrt(config.batch_size * config.kl_weight) / config.data_scale
 
 
-def validation_windows(horizon: int, tables: Path, params: dict):
+def horizon_windows(horizon: int, tables: Path, params: dict):
+    """Every split of the horizon table the stage `train_baseline@pecnet-<t_f>` reads."""
     n_past = load_section(WindowParams, "windows", params).n_past
-    return select_split(load_windows(tables / f"tf{horizon}.parquet", n_past, horizon), "val")
+    return load_windows(tables / f"tf{horizon}.parquet", n_past, horizon)
 
 
 def sigma_screen(folder: Path, horizon: int, sigmas: list[float], rounds: int, tables: Path,
                  params: dict) -> dict:
     """Mean min-of-K val ADE / FDE (px) of `folder`'s kept weights at each test-time sigma."""
-    val = validation_windows(horizon, tables, params)
+    val = select_split(horizon_windows(horizon, tables, params), "val")
     model = Pecnet.load(folder, CPU, selection="raw")
     trained = model.config
     k = trained.val_k
@@ -75,7 +76,6 @@ def sigma_screen(folder: Path, horizon: int, sigmas: list[float], rounds: int, t
         print(f"{folder.name} sigma {sigma}: val ADE {ade.mean():.2f} FDE {fde.mean():.2f} px "
               f"(rounds {ade.min():.2f}-{ade.max():.2f} / {fde.min():.2f}-{fde.max():.2f})",
               flush=True)
-    model.config = trained
     return {"folder": str(folder), "horizon": horizon, "k": k, "rounds": rounds, "n_val": len(val),
             "trained_sigma": trained.sigma, "kl_weight": trained.kl_weight,
             "data_scale": trained.data_scale, "sigma_px": likelihood_width(trained),
@@ -88,8 +88,7 @@ def train_width(horizon: int, kl_weight: float, data_scale: float | None, epochs
     validation curve. `seed` None: the stage's (`train_baseline.seed`)."""
     if seed is None:
         seed = load_section(TrainBaselineParams, "train_baseline", params).seed
-    n_past = load_section(WindowParams, "windows", params).n_past
-    arrays = load_windows(tables / f"tf{horizon}.parquet", n_past, horizon)
+    arrays = horizon_windows(horizon, tables, params)
     changes = {"kl_weight": kl_weight}
     if data_scale is not None:
         changes["data_scale"] = data_scale
@@ -98,7 +97,6 @@ def train_width(horizon: int, kl_weight: float, data_scale: float | None, epochs
     config = dataclasses.replace(model_config("pecnet", params), **changes)
     if out.exists():
         raise FileExistsError(f"{out}: exists; this screen trains from scratch into a fresh folder")
-    torch.set_num_threads(1)
     t0 = time.perf_counter()
     facts = train("pecnet", arrays, config, out, seed, CPU)
     result = fit_result_from(out)
