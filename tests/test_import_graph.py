@@ -149,8 +149,8 @@ def dvc_stage_names(dvc_yaml: Path) -> set[str]:
     return set(yaml.safe_load(dvc_yaml.read_text())["stages"])
 
 
-def unnamed_stages(root: Path, dvc_yaml: Path) -> list[str]:
-    names = dvc_stage_names(dvc_yaml)
+def unnamed_stages(root: Path, *dvc_yamls: Path) -> list[str]:
+    names = set().union(*(dvc_stage_names(dvc_yaml) for dvc_yaml in dvc_yamls))
     return sorted(p.stem for p in stage_files(root) if p.stem not in names)
 
 
@@ -179,8 +179,9 @@ def test_every_stage_module_has_a_main():
 
 
 def test_every_stage_module_is_a_dvc_stage_and_every_stage_runs_its_namesake():
-    assert unnamed_stages(REPO, REPO / "dvc.yaml") == []
+    assert unnamed_stages(REPO, REPO / "dvc.yaml", REPO / "studies/dvc.yaml") == []
     assert misnamed_commands(REPO / "dvc.yaml") == []
+    assert misnamed_commands(REPO / "studies/dvc.yaml") == []
 
 
 def test_every_module_is_on_one_floor():

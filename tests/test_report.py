@@ -32,6 +32,7 @@ from pipeline.report.tables import (Column, build_tables, compare, find_long_ter
                                     headline_metrics, summarize)
 from pipeline.stages import animations as animations_stage
 from pipeline.stages import report as report_stage
+from pipeline.stages import report_figures as report_figures_stage
 from pipeline.config import ParamsError, ReportParams, from_dict
 
 REPO = Path(__file__).resolve().parents[1]
@@ -288,8 +289,8 @@ def run_report(root: Path) -> Path:
     report_stage.main([
         "--metrics", str(root / "metrics"), "--paper", str(PAPER), "--params", str(root / "params.yaml"),
         "--scene-counts", str(root / "reports/data/windows_per_scene.json"),
-        "--segmentation-figures", str(root / "reports/figures/segmentation"),
-        "--qualitative", str(root / "data/ynet_predictions/qualitative.npz"),
+        "--gallery", str(root / "reports/figures/gallery"),
+        "--short-term-seeds", str(root / "studies/short_term_seeds"),
         "--manifests", str(root / "manifests"), "--dvc-lock", str(root / "dvc.lock"),
         "--animations", str(root / "reports/figures/animations"),
         "--horizon-figures", str(root / "reports/figures/horizons"),
@@ -308,6 +309,14 @@ def run_animations(root: Path) -> None:
         "--out", str(root / "reports/figures/animations")])
 
 
+def run_report_figures(root: Path) -> None:
+    """Stage `report_figures` on `root`'s qualitative arrays and segmentation figures."""
+    report_figures_stage.main([
+        "--qualitative", str(root / "data/ynet_predictions/qualitative.npz"),
+        "--segmentation-figures", str(root / "reports/figures/segmentation"),
+        "--out", str(root / "reports/figures/gallery")])
+
+
 def full_project(root: Path, animations: bool = False) -> Path:
     """Every input of the report; with `animations`, stage animations' output too."""
     write_metrics(root / "metrics", data_metrics() | model_metrics())
@@ -315,6 +324,7 @@ def full_project(root: Path, animations: bool = False) -> Path:
     for video in ("coupa_0", "gates_2", "quad_3"):
         write_png(root / f"reports/figures/segmentation/labels/{video}.png", (200, 160, 40))
         write_png(root / f"reports/figures/segmentation/predictions/{video}.png", (60, 160, 40))
+    run_report_figures(root)
     if animations:
         run_animations(root)
     return run_report(root)
@@ -547,7 +557,7 @@ def test_only_data_stages_give_a_valid_page(project):
     page = parse(html)
     assert {c["attrs"]["data-kind"] for c in comparison_cells(page)} == {"absent", "paper-only"}
     assert "No figure: no model has a measured horizon yet" in html
-    assert "qualitative.npz missing" in html
+    assert "gallery/index.json missing (stage report_figures draws it)" in html
     assert "No animations: stage not yet run: " in html and "animations/index.json missing" in html
     assert "segmentation.json missing" in html
     assert "Bias of horizons" in html
@@ -564,8 +574,9 @@ def test_plot_series_hold_only_measured_values(project):
     ka = json.loads((project / "reports/plots/ka_ade.json").read_text())
     assert [row["k_a"] for row in ka] == [1, 2, 5]
     assert ka[1] == {"k_a": 2, "ynet_ke5": 55.5, "ynet_ke20": 48.0, "pecnet_k20ka": 73.5}
-    for name in ("horizon_ade.png", "ka_ade.png", "qualitative.png"):
+    for name in ("horizon_ade.png", "ka_ade.png"):
         assert (project / "reports/figures/report" / name).stat().st_size > 1000
+    assert (project / "reports/figures/gallery/qualitative.png").stat().st_size > 1000
 
 
 def test_a_broken_qualitative_file_is_reported(project, tmp_path):
@@ -678,15 +689,27 @@ def test_page_renders_in_headless_chromium(project, tmp_path):
     assert broken == ["figures/report/horizon_ade.png"]
 
 
-def test_segmentation_figures_are_copied_beside_the_page_as_jpeg(project):
+def test_segmentation_figures_reach_the_page_as_the_committed_gallery_jpegs(project):
     full_project(project)
     html = (project / "reports/index.html").read_text()
-    copies = sorted((project / "reports/figures/report").glob("segmentation_predictions_*.jpg"))
-    assert copies, "no compact copy of the prediction figures"
+    copies = sorted((project / "reports/figures/gallery").glob("segmentation_predictions_*.jpg"))
+    assert [copy.name for copy in copies] == [f"segmentation_predictions_{video}.jpg"
+                                              for video in ("coupa_0", "gates_2", "quad_3")]
     for copy in copies:
         assert copy.read_bytes()[:2] == b"\xff\xd8"  # JPEG magic
-        assert f'src="figures/report/{copy.name}"' in html
+        assert f'src="figures/gallery/{copy.name}"' in html
+    assert 'src="figures/gallery/qualitative.png"' in html
     assert "figures/segmentation/" not in html  # the page never points at the stage's own output
+
+
+def test_report_figures_say_why_a_figure_is_missing(tmp_path):
+    report_figures_stage.main(["--qualitative", str(tmp_path / "absent.npz"),
+                               "--segmentation-figures", str(tmp_path / "absent"),
+                               "--out", str(tmp_path / "gallery")])
+    index = json.loads((tmp_path / "gallery/index.json").read_text())
+    assert index["qualitative"]["file"] is None and "absent.npz missing" in index["qualitative"]["absent"]
+    assert "absent missing" in index["segmentation"]["absent"] and index["segmentation"]["rows"] == []
+    assert sorted(p.name for p in (tmp_path / "gallery").iterdir()) == ["index.json"]
 
 
 def test_horizon_figure_takes_30_s_from_the_main_ynet_and_explains_untrained_horizons(project):
@@ -807,7 +830,7 @@ def test_ynet_row_of_the_training_seed_spread(project, not_run):
 def test_no_seed_spread_file_is_explained(project):
     write_metrics(project / "metrics", data_metrics() | model_metrics(), skip=("baseline_seed_spread.json",))
     html = run_report(project).read_text()
-    section = html.split('id="seed-spread"', 1)[1].split("<h2", 1)[0]
+    section = html.split('id="seed-spread"', 1)[1].split("<h3", 1)[0]
     assert "baseline_seed_spread.json missing" in section and "<table" not in section
 
 
@@ -1170,6 +1193,7 @@ def test_a_registered_model_gets_a_table_3_column_a_horizon_line_and_beyond_rows
     html = full_project_page(project)
 
     table = html[html.index('data-table="sdd_long"'):]
+    reasons = table[:table.index('<h2 id=')]  # the table's list of reasons, once each
     table = table[:table.index("</table>")]
     header = re.findall(r"<th>([^<]*)</th>", table)
     # after the paper's SDD columns (Y-net K_a = 5), before inD; registry order
@@ -1180,7 +1204,10 @@ def test_a_registered_model_gets_a_table_3_column_a_horizon_line_and_beyond_rows
     text = " ".join(cells[0]["text"].split())
     assert text.startswith("paper \u2014 ours 22.50") and "not in the paper" in text
     missing = f"stage not yet run: {project / 'metrics'}/baselines/later_tf30.json missing"
-    assert missing in table  # absent, explained
+    mark = re.search(r'<sup class="reason">(n\d+)</sup> ' + re.escape(missing), reasons)
+    assert mark, "the reason is listed under the table"
+    assert table.count(f'<sup class="reason">{mark.group(1)}</sup>') == 2  # its ADE and FDE cells
+    assert missing not in table  # the reason once, under the table, not in every cell
 
     horizon = html[html.index('<h2 id="fig-horizon">'):html.index('<h2 id="seed-spread">')]
     assert "<tr><th>Toy walker</th>" in horizon and "<tr><th>Not run yet</th>" in horizon

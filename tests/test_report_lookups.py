@@ -126,3 +126,16 @@ def test_lookup_grid_finds_the_matching_entry():
     assert lookup_grid(profiled, "p.json", "ka_grid", {"k_a": 2}, "ade", expect={"profile": "cpu"}).mismatch == (
         "measured with profile = paper; this cell is for profile = cpu")
     assert lookup_grid(profiled, "p.json", "ka_grid", {"k_a": 2}, "ade", expect={"profile": "paper"}).mismatch == ""
+
+
+def test_ynets_main_setting_is_one_number_everywhere():
+    """K_e = 20, K_a = 1 is the `main` entry (all its rounds), never the grid's one-round re-score."""
+    from pipeline.report.lookups import lookup_ynet_setting
+    record = {"rounds": 3, "main": {"ade": {"mean": 50.48, "std": 0.06}},
+              "ka_grid": [{"k_e": 20, "k_a": 1, "rounds": 1, "ade": {"mean": 50.53, "std": 0.0}},
+                          {"k_e": 20, "k_a": 2, "rounds": 1, "ade": {"mean": 46.59, "std": 0.0}},
+                          {"k_e": 10, "k_a": 1, "rounds": 1, "ade": {"mean": 58.98, "std": 0.0}}]}
+    store = MetricsStore("metrics", {"ynet_eval.json": record})
+    assert lookup_ynet_setting(store, "ynet_eval.json", 20, 1, "ade").mean == 50.48
+    assert lookup_ynet_setting(store, "ynet_eval.json", 20, 2, "ade").mean == 46.59
+    assert lookup_ynet_setting(store, "ynet_eval.json", 10, 1, "ade").mean == 58.98

@@ -170,3 +170,17 @@ def lookup_grid(store: MetricsStore, rel: str, grid: str, match: Mapping[str, in
             value = as_measured(row.get(metric), rounds, f"{store.where(rel)}: {grid}[{wanted}].{metric}")
             return with_mismatch(value, found, expect)
     return Absent(f"{store.where(rel)} has no {grid} entry with {wanted}", "invalid")
+
+
+YNET_MAIN = {"k_e": 20, "k_a": 1}  # Y-net's main setting, scored over several rounds as "main"
+
+
+def lookup_ynet_setting(store: MetricsStore, rel: str, k_e: int, k_a: int, metric: str,
+                        t_f: int | None = None) -> Measured | Absent:
+    """Y-net at (K_e, K_a) from a Y-net evaluation file: the main setting from its `main` entry
+    (all its rounds; the grid re-scores only its first), the others from its `ka_grid`, so that
+    one setting shows one number everywhere on the page."""
+    if {"k_e": k_e, "k_a": k_a} == YNET_MAIN:
+        return lookup(store, rel, ("main", metric), t_f=t_f)
+    return lookup_grid(store, rel, "ka_grid", {"k_e": k_e, "k_a": k_a}, metric, t_f=t_f)
+

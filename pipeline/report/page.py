@@ -80,10 +80,11 @@ from pipeline.report.claims import claims_section
 from pipeline.report.common import (LONG_TERM_KE, LONG_TERM_TF, FigureSlot, horizon_models,
                                     model_colours, table_models)
 from pipeline.report.data_and_segmentation import (chain_bias_rows, scene_count_rows,
-                                                   segmentation_gallery, segmentation_scores,
+                                                   segmentation_scores,
                                                    window_count_rows)
-from pipeline.report.figures import Qualitative, load_qualitative, plot_qualitative, plot_series
+from pipeline.report.figures import plot_series
 from pipeline.report.lookups import Absent, Measured, MetricsStore, is_number, load_metrics
+from pipeline.report.short_term_seeds import seed_rows, short_term_seeds
 from pipeline.report.provenance import PROTOCOL_KEYS, PROTOCOL_LABELS, PROTOCOLS, load_paper_values
 from pipeline.report.run_provenance import (git_state, lock_outputs, lock_params, machine,
                                             manifest_checksums, profiles, raw_data_hashes,
@@ -129,14 +130,14 @@ class Inputs:
     metrics: Path
     paper: Path
     scene_counts: Path
-    segmentation_figures: Path
-    qualitative: Path
+    gallery: Path  # stage report_figures' folder: the qualitative figure, the segmentation gallery
     manifests: Path
     repo: Path = field(default_factory=Path.cwd)
     own_outputs: tuple[str, ...] = ()  # the report's outputs, relative to `repo`
     stage_times: Path | None = None  # tools/timed_repro.py's record of `make repro`
     animations: Path | None = None  # stage animations' folder (index.json and the animations)
     horizon_figures: Path | None = None  # stage horizon_analysis' figures folder
+    short_term_seeds: Path | None = None  # the study's runs of Tables 1-2's baselines
 
 
 def rel_src(path: Path, html_dir: Path) -> str:
@@ -144,7 +145,7 @@ def rel_src(path: Path, html_dir: Path) -> str:
     return Path(os.path.relpath(path.resolve(), html_dir.resolve())).as_posix()
 
 
-def figure_sections(paper: Mapping, store: MetricsStore, horizons: list[int], qualitative_path: Path,
+def figure_sections(paper: Mapping, store: MetricsStore, horizons: list[int], gallery: Mapping,
                     slot, registered: Mapping[str, ModelEntry] | None = None) -> tuple[dict, dict]:
     """Figures 4-6 drawn (when there is something to draw) and described; the dvc plots series.
     Figure 4 has a line for every `registered` model too."""
@@ -156,22 +157,39 @@ def figure_sections(paper: Mapping, store: MetricsStore, horizons: list[int], qu
                for key, y in paper_long_term_points(paper).items()]
     k_paper = [(x, y, f"ynet_ke{LONG_TERM_KE}", "paper, Table 3 (Y-net K_e = 20)", "")
                for x, y in paper_ka_points(paper)]
-    h_slot, k_slot, q_slot = slot("horizon_ade.png"), slot("ka_ade.png"), slot("qualitative.png")
+    h_slot, k_slot = slot("horizon_ade.png"), slot("ka_ade.png")
     h_drawn = plot_series(h_series, h_paper, "prediction horizon t_f (s)", h_slot.path, colours)
     k_drawn = plot_series(k_series, k_paper, "K_a (paths per goal)", k_slot.path, colours)
-    qualitative = load_qualitative(qualitative_path)
-    if isinstance(qualitative, Qualitative):
-        plot_qualitative(qualitative.examples, q_slot.path)
     sections = {
         "figures_note": paper.get("figures", {}),
         "horizon": {"series": h_series, "horizons": horizons, "src": h_slot.src if h_drawn else None},
         "ka": {"series": k_series, "src": k_slot.src if k_drawn else None},
-        "qualitative": {"absent": qualitative if isinstance(qualitative, Absent) else None,
-                        "problems": qualitative.problems if isinstance(qualitative, Qualitative) else (),
-                        "src": q_slot.src if isinstance(qualitative, Qualitative) else None},
+        "qualitative": gallery["qualitative"],
     }
     plots = {"horizon_ade.json": plot_rows(h_series, "t_f"), "ka_ade.json": plot_rows(k_series, "k_a")}
     return sections, plots
+
+
+def gallery_index(folder: Path, html_dir: Path) -> dict[str, Any]:
+    """Stage `report_figures`' index, each file as an <img> src relative to the page (the figures
+    stay in the stage's folder): {"qualitative": {src, absent, problems}, "segmentation": {absent,
+    kinds, rows: [{video, images: [src | None]}], other: [src]}}."""
+    index = read_json(folder / "index.json")
+    if isinstance(index, Absent):
+        reason = f"{index.reason} (stage report_figures draws it)"
+        return {"qualitative": {"src": None, "absent": reason, "problems": []},
+                "segmentation": {"absent": reason, "kinds": [], "rows": [], "other": []}}
+
+    def src(name: str | None) -> str | None:
+        return rel_src(folder / name, html_dir) if name else None
+
+    figure, segmentation = index["qualitative"], index["segmentation"]
+    return {"qualitative": {"src": src(figure["file"]), "absent": figure["absent"],
+                            "problems": figure["problems"]},
+            "segmentation": {**segmentation,
+                             "rows": [{**row, "images": [src(name) for name in row["images"]]}
+                                      for row in segmentation["rows"]],
+                             "other": [src(name) for name in segmentation["other"]]}}
 
 
 def animation_section(folder: Path | None, html_dir: Path) -> dict[str, Any]:
@@ -246,13 +264,17 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
     paper = load_paper_values(inputs.paper)
     params = lock_params(lock)
     store = load_metrics(inputs.metrics, inputs.metrics.as_posix())
-    tables = build_tables(paper, store, report_params, params.get("profile"), registered)
+    studies = load_metrics(inputs.short_term_seeds) if inputs.short_term_seeds else None
+    seeds = (short_term_seeds(store, studies, (params.get("train_baseline") or {}).get("seed", 0))
+             if studies else None)
+    tables = build_tables(paper, store, report_params, params.get("profile"), registered, seeds)
     horizons = (params.get("windows") or {}).get("horizons") or []
 
     def slot(name: str) -> FigureSlot:
         return FigureSlot(figures_dir / name, rel_src(final_figures_dir / name, html_dir))
 
-    figures, plots = figure_sections(paper, store, horizons, inputs.qualitative, slot, registered)
+    gallery = gallery_index(inputs.gallery, html_dir)
+    figures, plots = figure_sections(paper, store, horizons, gallery, slot, registered)
     context = {
         "generated": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "bands": report_params,
@@ -266,13 +288,14 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         "beyond": beyond_section(store, LONG_TERM_TF, horizon_models(registered),
                                  model_colours(registered), slot),
         "seed_spread": seed_spread_section(store),
+        "short_term_seeds": seed_rows(seeds) if seeds else [],
         "horizon_analysis": horizon_analysis_section(store, inputs.horizon_figures, html_dir,
                                                      dict(table_models(registered))),
         "animations": animation_section(inputs.animations, html_dir),
         "data": data_section(store, inputs.scene_counts),
         "n_test_videos": len(TEST_VIDEOS),
         "segmentation": {**segmentation_scores(store),
-                         "gallery": segmentation_gallery(inputs.segmentation_figures, TEST_VIDEOS, slot)},
+                         "gallery": gallery["segmentation"]},
         "provenance": provenance_section(inputs, lock, params, store),
     }
     return context, plots, headline_metrics(tables, figures["horizon"]["series"])

@@ -8,10 +8,15 @@ all of its cells), failing with the table and cell named when a field is missing
 Ours under a cell's own protocol comes from the stored-prediction scores (stage
 `score_short_term_predictions`: `beyond/short_term.json`; `score_predictions`:
 `beyond/long_term.json`, `beyond/ind.json`), "not scored" where the key is not there.
-`why_differs` names the cause of a difference beyond the report's `far` band: `protocol` and
-`seed spread` are computed from our metrics (`protocol` also where only upstream PECNet's epoch
-selection on the test set, retrained as a compat diagnostic, brings ours within it); `source` and `budget` only where the yaml gives a
-note; `unknown` otherwise.
+`why_differs` names the cause of a difference beyond the report's `far` band, each from a number
+this pipeline measured and shown with it: `protocol` (ours under the cell's own protocol is within
+`far`; for PECNet also ours retrained with upstream's epochs selected on the test set, a compat
+diagnostic), `seed spread` (the paper's number lies in our range over training seeds), `budget`
+(more epochs close at least half of the gap: `BudgetPoint`); `unexplained` otherwise, with what was
+measured and did not explain it. No cause is ever written in paper_values.yaml: a sentence there
+explains nothing. A `source` cause (the quoted number's own setting accounts for the difference)
+would need a measurement of that setting, such as the quoted paper's released model scored here;
+the pipeline has none yet, so no cell can say so.
 """
 
 from __future__ import annotations
@@ -47,11 +52,10 @@ HEADLINE_PROTOCOL = "independent_min"
 PROTOCOL_KEYS = {"independent_min": {"ade": "ade", "fde": "fde"},
                  "pecnet_best_endpoint": {"ade": "ade_best_endpoint", "fde": "fde"},
                  "sgan_sequence": {"ade": "ade_sgan_sequence", "fde": "fde_sgan_sequence"}}
-WRITTEN_CAUSES = ("source", "budget")  # only from a `differs_because` note
-COMPUTED_CAUSES = ("protocol", "seed spread")  # only from our metrics
-CAUSES = ("protocol", "seed spread", "source", "budget", "unknown")
+CAUSES = ("protocol", "seed spread", "budget", "unexplained")  # each from a measurement but the last
 VERDICTS = ("match", *CAUSES)  # "match": within `far` under the headline protocol
-FIELDS = ("measured_by", "source", "protocol", "differs_because")
+FIELDS = ("measured_by", "source", "protocol")
+BUDGET_CLOSES = 0.5  # "budget" names the cause where the longest run closes at least this share
 SHORT_TERM_SCORES = "beyond/short_term.json"
 LONG_TERM_SCORES = "beyond/long_term.json"
 IND_SCORES = "beyond/ind.json"
@@ -68,19 +72,11 @@ class PaperValuesError(ValueError):
 
 
 @dataclass(frozen=True)
-class Explanation:
-    """A cause written in the yaml (`differs_because`), for a difference no metric can show."""
-    cause: str
-    note: str
-
-
-@dataclass(frozen=True)
 class CellSource:
     """Who measured one paper cell, where it was printed first, and under which protocol."""
     measured_by: str
     source: str
     protocol: str
-    differs_because: Explanation | None = None
 
     @property
     def quoted(self) -> bool:
@@ -95,6 +91,20 @@ class SourceNote:
     source: str
     protocol: str
     labels: tuple[str, ...]  # the table's columns (models) it covers
+
+
+@dataclass(frozen=True)
+class BudgetPoint:
+    """Ours after a longer training than the profile's (`factor` x its epochs, the schedule
+    stretched), beside ours at 1x: the share of the gap to the paper it closes."""
+    factor: int
+    ours: float  # at factor x the epochs
+    ours_1x: float
+
+    def closes(self, paper: float) -> float | None:
+        """(ours at 1x - ours at factor x) / (ours at 1x - paper); None without a gap."""
+        gap = self.ours_1x - paper
+        return None if gap == 0 else (self.ours_1x - self.ours) / gap
 
 
 @dataclass(frozen=True)
@@ -127,15 +137,13 @@ def with_provenance(paper: Mapping) -> dict:
             for entry in spec["models"]:
                 fields = model_fields(spec, entry, where)
                 entry["cells"] = {metric: {scene: cell_source(
-                    fields, ((metric, METRICS), (scene, scenes)),
-                    f"{where}, {entry.get('label')} {metric.upper()} {scene}")
+                    fields, f"{where}, {entry.get('label')} {metric.upper()} {scene}")
                     for scene in scenes} for metric in METRICS}
         else:
             for column in spec["columns"]:
                 fields = model_fields(spec, column, where)
                 name = column_name(column)
-                column["cells"] = {metric: cell_source(fields, ((metric, METRICS),),
-                                                       f"{where}, {name} {metric.upper()}")
+                column["cells"] = {metric: cell_source(fields, f"{where}, {name} {metric.upper()}")
                                    for metric in METRICS}
         unused = set(spec.get("provenance") or {}) - {e.get("model") for e in entries_of(spec)}
         if unused:
@@ -162,13 +170,15 @@ def model_fields(spec: Mapping, entry: Mapping, where: str) -> dict[str, Any]:
     if unknown:
         raise PaperValuesError(f"{where}, provenance of {entry.get('model')}: unknown fields "
                                f"{sorted(unknown)} (allowed: {', '.join(FIELDS)})")
+    if "differs_because" in entry:
+        raise PaperValuesError(f"{where}, {entry.get('label', entry.get('model'))}: differs_because "
+                               "is not read: a cause is computed by the report from a measurement, "
+                               "never written (see pipeline/report/provenance.py)")
     return {**shared, **{k: entry[k] for k in FIELDS if k in entry}}
 
 
-def cell_source(fields: Mapping[str, Any], keys: tuple[tuple[str, tuple[str, ...]], ...],
-                where: str) -> CellSource:
-    """One cell's `CellSource`; `keys` (its metric, then scene, each with the allowed ones) pick
-    its `differs_because`."""
+def cell_source(fields: Mapping[str, Any], where: str) -> CellSource:
+    """One cell's `CellSource`, its fields checked."""
     def one_of(name: str, allowed) -> str:
         value = fields.get(name)
         if value not in allowed:
@@ -180,35 +190,7 @@ def cell_source(fields: Mapping[str, Any], keys: tuple[tuple[str, tuple[str, ...
     if not isinstance(source, str) or not source.strip():
         raise PaperValuesError(f"paper_values.yaml, {where}: no source (which paper or run the "
                                "number comes from)")
-    return CellSource(measured_by, source, one_of("protocol", PROTOCOLS),
-                      explanation(fields.get("differs_because"), keys, where))
-
-
-def explanation(node: Any, keys: tuple[tuple[str, tuple[str, ...]], ...],
-                where: str) -> Explanation | None:
-    """The `differs_because` note covering the cell of `keys`: given for every cell, or per
-    metric, then per scene (a key outside the allowed ones fails: a typo would hide a note)."""
-    for key, allowed in keys:
-        if node is None or (isinstance(node, dict) and "cause" in node):
-            break
-        if not isinstance(node, dict) or not set(node) <= set(allowed):
-            raise PaperValuesError(f"paper_values.yaml, {where}: differs_because is {node!r}; "
-                                   f"give {{cause, note}} or key it by {', '.join(allowed)}")
-        node = node.get(key)
-    if node is None:
-        return None
-    if not isinstance(node, dict) or set(node) != {"cause", "note"}:
-        raise PaperValuesError(f"paper_values.yaml, {where}: differs_because must be {{cause, "
-                               f"note}} (for every cell, per metric or per scene), got {node!r}")
-    if node["cause"] not in WRITTEN_CAUSES:
-        computed = (" (computed from our metrics, never written)"
-                    if node["cause"] in COMPUTED_CAUSES else "")
-        raise PaperValuesError(f"paper_values.yaml, {where}: differs_because cause is "
-                               f"{node['cause']!r}{computed}; written causes are "
-                               f"{', '.join(WRITTEN_CAUSES)}")
-    if not isinstance(node["note"], str) or not node["note"].strip():
-        raise PaperValuesError(f"paper_values.yaml, {where}: differs_because has no note")
-    return Explanation(node["cause"], node["note"])
+    return CellSource(measured_by, source, one_of("protocol", PROTOCOLS))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -345,15 +327,16 @@ def within(diff: float | None, far: float) -> bool:
 
 def why_differs(paper: float, headline_diff: float | None, own_diff: float | None, far: float,
                 source: CellSource | None, seeds: tuple[float, float, int] | None = None,
-                test_selected_diff: float | None = None) -> Why:
+                test_selected_diff: float | None = None,
+                budget: BudgetPoint | None = None) -> Why:
     """How a cell stands. Where ours is scored under the cell's own protocol, that number decides
     (a headline within `far` does not make a match when the cell's own protocol does not);
     elsewhere the headline does. `match` when the deciding number is within `far` and so is the
     headline; `protocol` when only ours under the cell's own protocol is; otherwise the first
     cause that holds: `seed spread` (the paper's number lies within our range over training
-    seeds), `protocol` where ours with upstream's epochs selected on the test set
-    (`test_selected_diff`, a compat diagnostic) is within `far`, the yaml's note (with the compat
-    figure where there is one), `unknown`."""
+    seeds, ends included), `protocol` where ours with upstream's epochs selected on the test set
+    (`test_selected_diff`, a compat diagnostic) is within `far`, `budget` where the longer run
+    closes at least BUDGET_CLOSES of the gap; else `unexplained`, listing what was measured."""
     protocol = source.protocol if source else HEADLINE_PROTOCOL
     own_scored = own_diff is not None and protocol not in (HEADLINE_PROTOCOL, "unknown")
     if within(own_diff if own_scored else headline_diff, far):
@@ -363,19 +346,39 @@ def why_differs(paper: float, headline_diff: float | None, own_diff: float | Non
                                f"({own_diff * 100:+.1f} %)")
     if seeds is not None and seeds[0] <= paper <= seeds[1]:
         return Why("seed spread", f"paper {paper:g} within our {seeds[2]} training seeds' range "
-                                  f"{seeds[0]:.2f}-{seeds[1]:.2f}")
+                                  f"{seeds[0]:.3g}-{seeds[1]:.3g}")
     if within(test_selected_diff, far):
         return Why("protocol", f"within {far:.0%} only with epochs selected on the test set, as "
                                f"upstream's training loop selects them (compat diagnostic, "
                                f"{test_selected_diff * 100:+.1f} %)")
-    selected = ("" if test_selected_diff is None else
-                f"; {test_selected_diff * 100:+.1f} % with epochs selected on the test set (compat)")
-    if source is not None and source.differs_because is not None:
-        return Why(source.differs_because.cause, source.differs_because.note + selected)
-    if own_scored and within(headline_diff, far):
-        return Why("unknown", f"within {far:.0%} under our headline protocol, "
-                              f"{own_diff * 100:+.1f} % under {PROTOCOL_LABELS[protocol]}{selected}")
-    return Why("unknown", f"no protocol, seed or source explanation{selected}")
+    closes = budget.closes(paper) if budget is not None else None
+    budget_line = (f"{budget.factor}x the epochs closes {closes:.0%} of the gap "
+                   f"({budget.ours_1x:.3g} -> {budget.ours:.3g})" if closes is not None else "")
+    if closes is not None and closes >= BUDGET_CLOSES:
+        return Why("budget", budget_line)
+    return Why("unexplained", "; ".join(measured_lines(
+        headline_diff, own_diff if own_scored else None, protocol, far, paper, seeds,
+        test_selected_diff, budget_line)))
+
+
+def measured_lines(headline_diff: float | None, own_diff: float | None, protocol: str, far: float,
+                   paper: float, seeds: tuple[float, float, int] | None,
+                   test_selected_diff: float | None, budget_line: str) -> list[str]:
+    """What was measured for an unexplained cell and did not bring it within `far`."""
+    lines = []
+    if own_diff is not None:
+        lines.append(f"{own_diff * 100:+.1f} % under {PROTOCOL_LABELS[protocol]}, "
+                     f"{headline_diff * 100:+.1f} % under our headline")
+    if seeds is not None:
+        lines.append(f"paper {paper:g} outside our {seeds[2]} training seeds' range "
+                     f"{seeds[0]:.3g}-{seeds[1]:.3g}")
+    else:
+        lines.append("one training seed")
+    if test_selected_diff is not None:
+        lines.append(f"{test_selected_diff * 100:+.1f} % with epochs selected on the test set "
+                     "(compat)")
+    lines.append(budget_line or "no longer training measured")
+    return lines
 
 
 def glance_counts(verdicts: list[str]) -> dict[str, int]:

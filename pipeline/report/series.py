@@ -14,7 +14,7 @@ from pipeline.report.common import HORIZON_MODELS, LONG_TERM_TF
 from pipeline.report.compat import compat_rows
 from pipeline.report.diagnostics import HEADLINE, TITLE as DIAGNOSTICS_TITLE, diagnostics_from_store
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number, lookup,
-                                     lookup_grid)
+                                     lookup_ynet_setting)
 
 
 @dataclass(frozen=True)
@@ -68,7 +68,7 @@ def ynet_ka_series(store: MetricsStore) -> list[Series]:
     out = []
     for k_e in sorted({row["k_e"] for row in rows}):
         k_as = sorted({row["k_a"] for row in rows if row["k_e"] == k_e})
-        found = [(k_a, lookup_grid(store, rel, "ka_grid", {"k_e": k_e, "k_a": k_a}, "ade")) for k_a in k_as]
+        found = [(k_a, lookup_ynet_setting(store, rel, k_e, k_a, "ade")) for k_a in k_as]
         out.append(split_points(f"ynet_ke{k_e}", f"Y-net K_e = {k_e}", found))
     return out
 

@@ -23,6 +23,7 @@ from pipeline.report.provenance import (PROTOCOLS, CellSource, SourceNote, Why, 
                                         short_term_score, source_notes, test_selected_score,
                                         under_protocol, why_differs, with_provenance)
 from pipeline.report.series import Series
+from pipeline.report.short_term_seeds import ShortTermSeeds
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,7 @@ class Cell:
     name: str = ""  # "PECNet* (K = 20) ADE": how the lists under a table name the cell
     mark: str = ""  # its source's footnote mark: q1, q2 (quoted), a1 (the Y-net authors')
     test_selected: Measured | Absent | None = None  # compat: upstream's epochs chosen on test
+    reason_mark: str = ""  # an absent cell's: its reason's mark in the list under the table
 
     @property
     def kind(self) -> str:
@@ -81,6 +83,7 @@ class Table:
     sources: tuple[SourceNote, ...] = ()  # the footnotes of the cells' marks
     protocols: tuple[str, ...] = ()  # the protocols of its paper cells, for the caption
     differences: tuple[tuple[str, str, tuple[str, ...]], ...] = ()  # (cause, detail, cells)
+    absent_reasons: tuple[tuple[str, str], ...] = ()  # (mark, why not measured), once each
 
     def cells(self) -> list[Cell]:
         return [cell for row in self.rows for cell in row.cells]
@@ -143,12 +146,26 @@ def annotated(table: Table) -> Table:
     labelled = [(column.group if column.label in ("ADE", "FDE") else column.label, cell)
                 for row in table.rows for column, cell in zip(table.columns, row.cells)]
     notes, marks = source_notes([(label, cell.source) for label, cell in labelled if cell.source])
-    rows = tuple(Row(row.label, tuple(replace(cell, mark=marks.get(cell.source, ""))
+    reasons = absent_reason_marks(table.cells())
+    rows = tuple(Row(row.label, tuple(replace(cell, mark=marks.get(cell.source, ""),
+                                              reason_mark=reasons.get(absent_reason(cell), ""))
                                       for cell in row.cells)) for row in table.rows)
     protocols = tuple(p for p in PROTOCOLS if any(cell.source and cell.source.protocol == p
                                                   for _, cell in labelled))
     differences = difference_lines([(cell.name, cell.why) for _, cell in labelled if cell.why])
-    return replace(table, rows=rows, sources=notes, protocols=protocols, differences=differences)
+    return replace(table, rows=rows, sources=notes, protocols=protocols, differences=differences,
+                   absent_reasons=tuple((mark, reason) for reason, mark in reasons.items()))
+
+
+def absent_reason(cell: Cell) -> str:
+    return cell.ours.reason if isinstance(cell.ours, Absent) else ""
+
+
+def absent_reason_marks(cells: list[Cell]) -> dict[str, str]:
+    """Each distinct reason of the table's absent cells, in reading order, marked n1, n2 ...: the
+    cells show the mark and the table lists each reason once."""
+    reasons = dict.fromkeys(absent_reason(cell) for cell in cells if absent_reason(cell))
+    return {reason: f"n{i}" for i, reason in enumerate(reasons, 1)}
 
 
 def ours_if_trained(model: str, find) -> Measured | Absent | None:
@@ -163,8 +180,9 @@ def expected(profile: str | None, **settings: int) -> dict[str, Any]:
 
 
 def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
-                    profile: str | None = None) -> Table:
-    """Table 1: short-term SDD, K = 20 and K = 5 groups."""
+                    profile: str | None = None, seeds: ShortTermSeeds | None = None) -> Table:
+    """Table 1: short-term SDD, K = 20 and K = 5 groups; `seeds`: the baselines' runs over
+    training seeds (a cell's range for the cause "seed spread")."""
     cols = spec["columns"]
     rows = []
     for metric in METRICS:
@@ -176,8 +194,10 @@ def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
             source = c["cells"][metric]
             own = under_protocol(source.protocol, metric, lambda key, c=c: short_term_score(
                 store, "sdd", c["model"], key, c["k"]))
+            spread = seeds.range("sdd", c["model"], c["k"], metric) if seeds else None
             cells.append(paper_cell(c[metric], ours, params, source,
-                                    f"{c['label']} (K = {c['k']}) {metric.upper()}", own))
+                                    f"{c['label']} (K = {c['k']}) {metric.upper()}", own,
+                                    seeds=spread))
         rows.append(Row(metric.upper(), tuple(cells)))
     return Table("sdd_short", spec["number"], spec["title"],
                  "t_p = 3.2 s, t_f = 4.8 s (TrajNet split). Ours: metrics/short_term/sdd.json; "
@@ -187,7 +207,8 @@ def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
 
 
 def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportParams,
-                 source: CellSource | None = None, name: str = "") -> Cell:
+                 source: CellSource | None = None, name: str = "",
+                 seeds: tuple[float, float, int] | None = None) -> Cell:
     """The AVG row: mean of our five scene means, only when all five were measured (and so under
     the cell's own protocol)."""
     if any(cell.ours is None for cell in scene_cells):
@@ -202,12 +223,13 @@ def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportPar
     own = mean_of([cell.own for cell in scene_cells], "mean of the scenes' values")
     selected = mean_of([cell.test_selected for cell in scene_cells],
                        "mean of the scenes' test-selected values (compat)")
-    return paper_cell(paper, ours, params, source, name, own, test_selected=selected)
+    return paper_cell(paper, ours, params, source, name, own, seeds=seeds, test_selected=selected)
 
 
 def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
-                  profile: str | None = None) -> Table:
-    """Table 2: ETH/UCY per scene (rows) and model x metric (columns), plus the average."""
+                  profile: str | None = None, seeds: ShortTermSeeds | None = None) -> Table:
+    """Table 2: ETH/UCY per scene (rows) and model x metric (columns), plus the average;
+    `seeds`: the baselines' runs over training seeds, per fold and for the average."""
     columns, per_scene = [], {scene: [] for scene in spec["scenes"]}
     for m in spec["models"]:
         for metric in METRICS:
@@ -220,14 +242,16 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
                 own = under_protocol(source.protocol, metric, lambda key, s=scene, mo=m["model"]:
                                      short_term_score(store, s, mo, key, 20))
                 selected = test_selected_score(store, scene, m["model"], metric, source.protocol)
+                spread = seeds.range(scene, m["model"], 20, metric) if seeds else None
                 per_scene[scene].append(paper_cell(
                     m[metric][scene], ours, params, source,
                     f"{m['label']} {metric.upper()} {spec['scene_labels'][scene]}", own,
-                    test_selected=selected))
+                    seeds=spread, test_selected=selected))
     rows = [Row(spec["scene_labels"][s], tuple(cells)) for s, cells in per_scene.items()]
     in_column_order = [(m, metric) for m in spec["models"] for metric in METRICS]
     avg = [average_cell(m[metric].get("avg"), [per_scene[s][i] for s in spec["scenes"]], params,
-                        m["cells"][metric]["avg"], f"{m['label']} {metric.upper()} AVG")
+                        m["cells"][metric]["avg"], f"{m['label']} {metric.upper()} AVG",
+                        seeds.average(m["model"], metric) if seeds else None)
            for i, (m, metric) in enumerate(in_column_order)]
     rows.append(Row("AVG", tuple(avg)))
     return Table("eth_ucy", spec["number"], spec["title"],
@@ -346,18 +370,22 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams,
 
 TABLE_BUILDERS = {"sdd_short": table_sdd_short, "eth_ucy": table_eth_ucy,
                   "sdd_long": table_sdd_long, "ttst": table_ttst}
+SHORT_TERM_TABLES = ("sdd_short", "eth_ucy")  # their baselines' seeds: studies/short_term_seeds
 
 
 def build_tables(paper: Mapping, store: MetricsStore, params: ReportParams,
                  profile: str | None = None,
-                 registered: Mapping[str, ModelEntry] | None = None) -> list[Table]:
+                 registered: Mapping[str, ModelEntry] | None = None,
+                 seeds: ShortTermSeeds | None = None) -> list[Table]:
     """The paper's four tables with ours beside them; `profile`: the one the stages ran under (a
     file of another profile is shown as a mismatch, not compared); `registered`: the models of
     params.yaml `models`, each a column of Table 3 (`with_registered`). Table 4 is Y-net's own
-    TTST / CWS ablation: no other model has those switches, so it has no column for them."""
+    TTST / CWS ablation: no other model has those switches, so it has no column for them.
+    `seeds`: Tables 1-2's baselines over training seeds."""
     paper = with_provenance(paper)
     specs = {**paper, "sdd_long": with_registered(paper["sdd_long"], registered or {})}
-    tables = [annotated(build(specs[key], store, params, profile))
+    tables = [annotated(build(specs[key], store, params, profile,
+                              **({"seeds": seeds} if key in SHORT_TERM_TABLES else {})))
               for key, build in TABLE_BUILDERS.items()]
     return sorted(tables, key=lambda t: t.number)
 

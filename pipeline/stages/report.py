@@ -10,8 +10,7 @@ rows each, under their label and colour; README "Your model here").
 
     python -m pipeline.stages.report --metrics metrics --paper pipeline/report/paper_values.yaml \
         --scene-counts reports/data/windows_per_scene.json \
-        --segmentation-figures reports/figures/segmentation/predictions \
-        --qualitative data/ynet_predictions/qualitative.npz --manifests manifests --dvc-lock dvc.lock \
+        --gallery reports/figures/gallery --manifests manifests --dvc-lock dvc.lock \
         --animations reports/figures/animations --horizon-figures reports/figures/horizons \
         --out reports/index.html \
         --figures reports/figures/report --plots reports/plots --headline reports/headline
@@ -34,8 +33,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--metrics", type=Path, default=Path("metrics"), help="metrics folder")
     parser.add_argument("--paper", type=Path, default=Path("pipeline/report/paper_values.yaml"))
     parser.add_argument("--scene-counts", type=Path, default=Path("reports/data/windows_per_scene.json"))
-    parser.add_argument("--segmentation-figures", type=Path, default=Path("reports/figures/segmentation/predictions"))
-    parser.add_argument("--qualitative", type=Path, default=Path("data/ynet_predictions/qualitative.npz"))
+    parser.add_argument("--gallery", type=Path, default=Path("reports/figures/gallery"),
+                        help="stage report_figures' folder (Figure 6, the segmentation gallery)")
     parser.add_argument("--manifests", type=Path, default=Path("manifests"))
     parser.add_argument("--dvc-lock", type=Path, default=Path("dvc.lock"))
     parser.add_argument("--stage-times", type=Path, default=Path("reports/stage_times.json"),
@@ -44,6 +43,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="stage animations' folder (index.json and the animated windows)")
     parser.add_argument("--horizon-figures", type=Path, default=Path("reports/figures/horizons"),
                         help="stage horizon_analysis' figures folder")
+    parser.add_argument("--short-term-seeds", type=Path, default=Path("studies/short_term_seeds"),
+                        help="the study's runs of Tables 1-2's baselines with other training seeds")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"),
                         help="read for its `report` and `models` sections only")
     parser.add_argument("--out", type=Path, required=True, help="the HTML page written")
@@ -57,10 +58,10 @@ def main(argv: list[str] | None = None) -> None:
     own_outputs = tuple(Path(os.path.relpath(path.resolve(), Path.cwd())).as_posix()
                         for path in (args.out, args.figures, args.plots, args.headline,
                                      args.stage_times))  # the stage times: make repro writes them
-    inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.segmentation_figures,
-                    args.qualitative, args.manifests, own_outputs=own_outputs,
+    inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.gallery, args.manifests,
+                    own_outputs=own_outputs,
                     stage_times=args.stage_times, animations=args.animations,
-                    horizon_figures=args.horizon_figures)
+                    horizon_figures=args.horizon_figures, short_term_seeds=args.short_term_seeds)
     write_report(inputs, read_lock(args.dvc_lock), report_params, args.out, args.figures,
                  args.plots, args.headline, registered=load_models(params))
 
