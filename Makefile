@@ -17,12 +17,19 @@ $(VENV)/.installed: pyproject.toml requirements.lock
 	touch $@
 
 # the stage commands run on a Dask LocalCluster of this machine (JOBS threads; one worker per GPU),
-# or on a running cluster: make repro DASK_ADDRESS=tcp://host:8786 (docs/cluster.md)
+# listening on 127.0.0.1 only; DASHBOARD=0.0.0.0:8787 opens its dashboard (every stage's command
+# and log, no login) to the network. Or on a running cluster over TLS, its certificates in Dask's
+# config: make repro DASK_ADDRESS=tls://host:8786; plain tcp:// to another machine only with
+# DASK_INSECURE=1, on a network you trust (docs/cluster.md)
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 DASK_ADDRESS ?=
+DASK_INSECURE ?=
+DASHBOARD ?=
 repro: env  # dvc repro, two single-threaded stages at once on 2 cores, each clocked (tools/timed_repro.py)
 	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python tools/timed_repro.py --jobs $(JOBS) \
-		$(if $(DASK_ADDRESS),--address $(DASK_ADDRESS))
+		$(if $(DASK_ADDRESS),--address $(DASK_ADDRESS)) \
+		$(if $(filter 1 yes true,$(DASK_INSECURE)),--insecure) \
+		$(if $(DASHBOARD),--dashboard $(DASHBOARD))
 
 test: env
 	if [ "$$CI" = true ]; then bash tests/setup_chromium.sh; fi

@@ -12,6 +12,7 @@ class against `params.yaml`.
 from __future__ import annotations
 
 import dataclasses
+import re
 import types
 import typing
 import urllib.parse
@@ -49,12 +50,17 @@ def read_params(path: Path | str = PARAMS_FILE) -> dict[str, Any]:
 SCALAR_TYPES = {bool: (bool,), int: (int,), float: (int, float), str: (str,)}
 
 
+def union_options(hint: Any) -> tuple:
+    """The types an annotation allows: (float, NoneType) for `float | None`, (int,) for int."""
+    return (typing.get_args(hint) if typing.get_origin(hint) in (typing.Union, types.UnionType)
+            else (hint,))
+
+
 def scalar_type_error(hint: Any, value: Any) -> str | None:
     """Why `value` does not fit a plain scalar annotation (bool, int, float, str, or one of them
     `| None`), or None; any other annotation is left to the dataclass's own checks. A bool is no
     number here (YAML's `yes` for an epoch count is a typo, not 1)."""
-    options = (typing.get_args(hint) if typing.get_origin(hint) in (typing.Union, types.UnionType)
-               else (hint,))
+    options = union_options(hint)
     kinds = [o for o in options if o is not type(None)]
     if not kinds or any(o not in SCALAR_TYPES for o in kinds):
         return None
@@ -65,6 +71,32 @@ def scalar_type_error(hint: Any, value: Any) -> str | None:
             return None
     wanted = " or ".join(k.__name__ for k in kinds) + (" or null" if type(None) in options else "")
     return f"expected {wanted}, got {type(value).__name__} {value!r}"
+
+
+# A float as YAML 1.2 writes it: DVC (ruamel) reads `1e9` and `1e-3` as numbers, PyYAML (YAML 1.1,
+# which needs a dot and a signed exponent) as strings
+YAML12_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+
+
+def wants_float(hint: Any) -> bool:
+    """Whether a field annotated `hint` takes a float and no string (float, `float | None`)."""
+    options = union_options(hint)
+    return float in options and str not in options
+
+
+def yaml12_floats(hint: Any, value: Any) -> Any:
+    """`value` with every string YAML 1.2 reads as a float made one, where `hint` wants a float
+    (a field, or the items of a list / the values of a dict of floats): `1e9` in params.yaml (or
+    from `dvc exp run -S`) then reaches the field's own checks, as DVC read it, instead of failing
+    as a string."""
+    if isinstance(value, str) and wants_float(hint) and YAML12_FLOAT.fullmatch(value.strip()):
+        return float(value)
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin is list and isinstance(value, list) and args:
+        return [yaml12_floats(args[0], item) for item in value]
+    if origin is dict and isinstance(value, dict) and len(args) == 2:
+        return {key: yaml12_floats(args[1], item) for key, item in value.items()}
+    return value
 
 
 def from_dict(cls: type[T], values: Any, where: str) -> T:
@@ -81,6 +113,7 @@ def from_dict(cls: type[T], values: Any, where: str) -> T:
         hint = hints[name]
         if dataclasses.is_dataclass(hint):
             value = from_dict(hint, value, f"{where}.{name}")
+        value = yaml12_floats(hint, value)
         wrong = scalar_type_error(hint, value)
         if wrong:
             raise ParamsError(f"{where}.{name}: {wrong}")

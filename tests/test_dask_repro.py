@@ -3,8 +3,10 @@ spread over the GPU workers, a dead worker's stage rerun (a training resuming), 
 reaching a worker's command, and set-ups that cannot work failing before anything is written.
 
 One module-scoped cluster of two worker processes, each offering 1 thread and a fake GPU
-(CUDA_VISIBLE_DEVICES 0 and 1), built as `make repro` builds its own on a 2-GPU machine; the
-worker-killing test runs last, as it leaves a restarted worker behind."""
+(CUDA_VISIBLE_DEVICES 0 and 1), built as `make repro` builds its own on a 2-GPU machine; each test
+gets it with both workers up (`gpu_cluster`), so a test that killed a worker may run in any place
+of the order. The tests wait on events (a file appearing, the scheduler's state), not on the
+clock."""
 
 import json
 import os
@@ -24,9 +26,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 import parallel_repro  # noqa: E402
 import stage_worker  # noqa: E402
 from parallel_repro import SetupError  # noqa: E402
-from tests.test_parallel_repro import clean, make_project  # noqa: E402
+from tests.test_parallel_repro import DVC, PYTHON, clean, make_project  # noqa: E402
 
-PYTHON = sys.executable
 # a fake GPU stage: records which device it was given and when it ran; it ends once two such
 # stages have started (or after 10 s), so two that run side by side overlap however slow the
 # machine, and two that run one after the other do not
@@ -36,27 +37,50 @@ GPU_STEP = ("import glob, json, os, sys, time; start = time.time(); "
             "json.dump({'cuda': os.environ['CUDA_VISIBLE_DEVICES'], 'start': start, "
             "'end': time.time()}, open(sys.argv[1], 'w'))")
 # a resumable training: one checkpoint per epoch in a persist output; each attempt noted; on
-# SIGTERM it notes it and exits 143, as our trainings do once they saved a checkpoint
+# SIGTERM it notes it and exits 143, as our trainings do once they saved a checkpoint. Its first
+# attempt waits at epoch 2 (creating kill_me) until a SIGTERM ends it
 TRAIN = """\
 import json, os, pathlib, signal, sys, time
 signal.signal(signal.SIGTERM, lambda *_: (open("terminated.txt", "a").write("x"), sys.exit(143)))
 checkpoint = pathlib.Path("checkpoints/last.json")
 checkpoint.parent.mkdir(exist_ok=True)
-epoch = json.loads(checkpoint.read_text())["epoch"] if checkpoint.exists() else 0
+first_attempt = not checkpoint.exists()
+epoch = 0 if first_attempt else json.loads(checkpoint.read_text())["epoch"]
 with open("attempts.txt", "a") as attempts:
     attempts.write(f"{os.getpid()} {epoch}\\n")
 for epoch in range(epoch, 6):
-    time.sleep(0.5)
+    if first_attempt and epoch == 2:
+        pathlib.Path("kill_me").touch()
+        time.sleep(60)
     checkpoint.write_text(json.dumps({"epoch": epoch + 1}))
 pathlib.Path("model.txt").write_text("trained 6 epochs\\n")
 """
 
 
 @pytest.fixture(scope="module")
-def gpu_cluster():
+def module_gpu_cluster():
     cluster = parallel_repro.start_local_cluster(2, gpus=["0", "1"])
     yield cluster
     cluster.close()
+
+
+@pytest.fixture
+def gpu_cluster(module_gpu_cluster):
+    """The module's cluster once both its workers answer: a worker killed by an earlier test is
+    restarted by its Nanny, and the scheduler may list the dead one for a moment."""
+    from distributed import Client
+
+    deadline = time.monotonic() + 60
+    with Client(module_gpu_cluster, set_as_default=False) as client:
+        while True:
+            try:
+                pids = client.run(os.getpid)
+                if len(pids) == 2 and all(psutil.pid_exists(pid) for pid in pids.values()):
+                    return module_gpu_cluster
+            except OSError:  # a dead worker still listed
+                pass
+            assert time.monotonic() < deadline, "the cluster did not get its two workers back"
+            time.sleep(0.2)
 
 
 @pytest.fixture
@@ -66,9 +90,16 @@ def project(tmp_path, monkeypatch):
 
 
 def write_dvc_yaml(root: Path, stages: dict, params: str = "") -> None:
-    subprocess.run(["dvc", "init", "--no-scm", "-q"], cwd=root, check=True)
+    subprocess.run([*DVC, "init", "--no-scm", "-q"], cwd=root, check=True)
     (root / "params.yaml").write_text(params or "job:\n  threads: 1\n")
     (root / "dvc.yaml").write_text(yaml.safe_dump({"stages": stages}))
+
+
+# right's first command: wait (up to 30 s) until left is locked, so that dvc.lock lists the stages
+# in a serial run's order (DVC appends each stage as it is locked) however the two are timed
+AFTER_LEFT_IS_LOCKED = ("import pathlib, time; lock = pathlib.Path('dvc.lock'); "
+                        "any('left:' in (lock.read_text() if lock.exists() else '') "
+                        "or time.sleep(0.05) for _ in range(600))")
 
 
 def deterministic_stages() -> dict:
@@ -77,7 +108,8 @@ def deterministic_stages() -> dict:
     return {"prep": {"cmd": write("prep.txt", "x"), "outs": ["prep.txt"]},
             "left": {"cmd": write("left.txt", "l"), "deps": ["prep.txt"],
                      "params": ["job.threads"], "outs": ["left.txt"]},
-            "right": {"cmd": [write("right.txt", "r"), write("right2.txt", "s")],
+            "right": {"cmd": [f"{PYTHON} -c \"{AFTER_LEFT_IS_LOCKED}\"", write("right.txt", "r"),
+                              write("right2.txt", "s")],
                       "deps": ["prep.txt"], "outs": ["right.txt", "right2.txt"]},
             "join": {"cmd": write("join.txt", "y"), "deps": ["left.txt", "right.txt"],
                      "outs": ["join.txt"]}}
@@ -88,12 +120,12 @@ def gpu_stages(count: int) -> dict:
                       "outs": [f"g{i}.json"]} for i in range(count)}
 
 
-def when(path: Path, timeout: float = 30) -> str:
-    """The file's text once it exists."""
+def when(path: Path, timeout: float = 30, empty_ok: bool = False) -> str:
+    """The file's text once it exists (and, unless `empty_ok`, holds something)."""
     deadline = time.monotonic() + timeout
-    while not path.exists() or not path.read_text():
+    while not path.exists() or not (empty_ok or path.read_text()):
         assert time.monotonic() < deadline, f"{path} never appeared"
-        time.sleep(0.1)
+        time.sleep(0.05)
     return path.read_text()
 
 
@@ -214,7 +246,7 @@ def test_the_cluster_writes_the_outputs_and_lock_of_dvc_repro(project, gpu_clust
         root.mkdir()
         write_dvc_yaml(root, deterministic_stages())
     os.chdir(dask)  # (the project fixture's monkeypatch restores the working directory)
-    subprocess.run(["dvc", "repro", "-q"], cwd=serial, check=True)
+    subprocess.run([*DVC, "repro", "-q"], cwd=serial, check=True)
     code, seconds = parallel_repro.run_stages([], root=str(dask),
                                               address=gpu_cluster.scheduler_address)
     assert code == 0 and set(seconds) == {"prep", "left", "right", "join"}
@@ -349,8 +381,7 @@ def test_a_worker_killed_mid_training_its_stage_resumes_elsewhere(project, gpu_c
 
     def kill_the_worker_after_two_epochs():
         pid = int(when(project / "attempts.txt").split()[0])
-        while json.loads(when(project / "checkpoints" / "last.json"))["epoch"] < 2:
-            time.sleep(0.1)
+        when(project / "kill_me", empty_ok=True)
         [worker] = [p.pid for p in psutil.Process(pid).parents() if p.pid in worker_pids]
         os.kill(worker, signal.SIGKILL)
 
@@ -362,5 +393,53 @@ def test_a_worker_killed_mid_training_its_stage_resumes_elsewhere(project, gpu_c
     assert code == 0 and set(seconds) == {"train"}
     assert (project / "terminated.txt").read_text() == "x"  # the first try: SIGTERM, once
     attempts = [line.split() for line in (project / "attempts.txt").read_text().splitlines()]
-    assert len(attempts) == 2 and int(attempts[1][1]) >= 2  # the second resumed from epoch >= 2
+    assert len(attempts) == 2 and int(attempts[1][1]) == 2  # the second resumed at epoch 2
     assert (project / "model.txt").read_text() == "trained 6 epochs\n" and clean(project)
+
+
+def scheduler_keys(client, prefix: str) -> list[str]:
+    """The task keys the scheduler still holds that start with `prefix`."""
+    return client.run_on_scheduler(
+        lambda dask_scheduler: [str(key) for key in dask_scheduler.tasks
+                                if str(key).startswith(prefix)])
+
+
+def test_a_locked_stage_is_forgotten_so_losing_its_worker_later_does_not_run_it_again(
+        project, gpu_cluster):
+    """Once `first` is locked the scheduler no longer holds its task; had the runner kept it,
+    losing the worker that holds its result (killed here while `second` waits to start) would make
+    the scheduler run `first`'s command again, behind DVC's back."""
+    from distributed import Client
+
+    ancestors = ("import json, pathlib, psutil; pathlib.Path('first.txt').write_text('1'); "
+                 "open('runs.txt', 'a').write(json.dumps([p.pid for p in "
+                 "psutil.Process().parents()]) + chr(10))")
+    write_dvc_yaml(project, {
+        "first": {"cmd": f"{PYTHON} -c \"{ancestors}\"", "outs": ["first.txt"]},
+        "second": {"cmd": f"{PYTHON} -c \"open('second.txt', 'w').write('2')\"",
+                   "deps": ["first.txt"], "outs": ["second.txt"]}})
+    seen: dict[str, object] = {}
+    with Client(gpu_cluster, set_as_default=False) as client:
+        address_of = {pid: address for address, pid in client.run(os.getpid).items()}
+
+        def on_stage_done(name: str, _seconds: float) -> None:
+            if name != "first":
+                return
+            deadline = time.monotonic() + 10
+            while scheduler_keys(client, "stage-first-") and time.monotonic() < deadline:
+                time.sleep(0.05)
+            seen["still held"] = scheduler_keys(client, "stage-first-")
+            [run] = [json.loads(line) for line in (project / "runs.txt").read_text().splitlines()]
+            [worker] = [pid for pid in run if pid in address_of]
+            os.kill(worker, signal.SIGKILL)
+            while address_of[worker] in client.scheduler_info()["workers"]:
+                assert time.monotonic() < deadline + 30, "the scheduler never noticed"
+                time.sleep(0.05)
+
+        code, seconds = parallel_repro.run_stages([], root=str(project),
+                                                  on_stage_done=on_stage_done,
+                                                  address=gpu_cluster.scheduler_address)
+    assert seen["still held"] == []
+    assert code == 0 and set(seconds) == {"first", "second"}
+    assert len((project / "runs.txt").read_text().splitlines()) == 1  # first's command ran once
+    assert clean(project)

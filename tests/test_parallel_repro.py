@@ -1,18 +1,23 @@
 """tools/parallel_repro.py on its default cluster (a LocalCluster of this machine): single-threaded
-stages run two at a time, with the lock a serial `dvc repro` would write. The integration tests
-build a four-stage DVC project in a temp folder: prep -> (left, right) -> join, where left and
-right sleep and record when they ran."""
+stages run two at a time, with the lock a serial `dvc repro` would write, and a rerun after a stop
+goes on from what the stopped run made. The integration tests build a four-stage DVC project in a
+temp folder: prep -> (left, right) -> join, where left and right record when they ran. They wait
+on events, not on the clock: two stages that may run side by side each wait until the other has
+started, so they overlap however slow the machine; a stopped command waits for the signal."""
 
 import contextlib
 import json
 import os
+import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from pathlib import Path
 
-import pytest
+import dvc  # noqa: F401  (now, not first inside a capsys test: dvc's log handlers keep the
+import pytest  # sys.stdout of dvc's import, and a test's capsys stream is closed after it)
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
@@ -20,15 +25,34 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 import parallel_repro  # noqa: E402
 from parallel_repro import ALONE, SHARED  # noqa: E402
 
+PYTHON = sys.executable
+DVC = [PYTHON, "-m", "dvc"]  # the dvc of the venv running the tests, whatever PATH says
+# a stage of the fixture: argv out, how, patience. "meet" (the default): note its start in
+# started/ and wait until another stage has started too, or `patience` seconds (so a stage that
+# must run alone ends soon); "fail": meet, then exit 3; "wait": a minute unless a signal ends it;
+# "interrupt": send the runner SIGINT (as Ctrl-C would) and wait until the runner passes it on,
+# which ends it; "interrupt-but-finish": the same, but it notes the signal and then finishes
 STEP = textwrap.dedent("""\
-    import json, os, signal, sys, time
-    out, how = sys.argv[1], sys.argv[2] if len(sys.argv) > 2 else ""
+    import json, os, pathlib, signal, sys, time
+    out, how, patience = sys.argv[1], sys.argv[2], float(sys.argv[3])
     start = time.time()
-    if how.startswith("interrupt"):  # as Ctrl-C would: the runner gets SIGINT while this runs
-        if how == "interrupt-but-finish":
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
+    started = pathlib.Path("started")
+    started.mkdir(exist_ok=True)
+    (started / out).touch()
+    passed_on = []
+    if how == "interrupt-but-finish":
+        signal.signal(signal.SIGINT, lambda *_: passed_on.append(1))
+    if how.startswith("interrupt"):
         os.kill(int(os.environ["RUNNER_PID"]), signal.SIGINT)
-    time.sleep(60 if how == "wait" else 1.5)  # "wait": until a signal ends it
+        deadline = time.monotonic() + 30
+        while not passed_on and time.monotonic() < deadline:
+            time.sleep(0.05)  # "interrupt": the runner's SIGINT ends it here
+    elif how == "wait":
+        time.sleep(60)
+    else:
+        deadline = time.monotonic() + patience
+        while len(list(started.iterdir())) < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
     if how == "fail":
         sys.exit(3)
     json.dump({"start": start, "end": time.time()}, open(out, "w"))
@@ -64,23 +88,23 @@ def test_a_stage_is_ready_once_its_upstream_stages_finished():
 
 
 def make_project(root: Path, threads: int = 1, right: str = "", left: str = "",
-                 right_meta: int | None = None) -> None:
+                 right_meta: int | None = None, patience: float = 30) -> None:
     """`right`: "fail" (exits 3), "interrupt" (sends the runner SIGINT) or "interrupt-but-finish"
-    (sends it, ignores it, succeeds, and a second command follows), else it succeeds. `left`:
-    "wait" sleeps a minute unless a signal ends it. `right_meta`: right declares no params but
-    `meta: {threads: right_meta}`."""
-    subprocess.run(["dvc", "init", "--no-scm", "-q"], cwd=root, check=True)
+    (sends it, notes it, succeeds, and a second command follows), else it succeeds once it met
+    left. `left`: "wait" sleeps a minute unless a signal ends it. `right_meta`: right declares no
+    params but `meta: {threads: right_meta}`. `patience`: how long left and right wait for each
+    other (short where they must not run together)."""
+    subprocess.run([*DVC, "init", "--no-scm", "-q"], cwd=root, check=True)
     (root / "step.py").write_text(STEP)
     (root / "params.yaml").write_text(f"job:\n  threads: {threads}\n  other: 5\n")
-    python = sys.executable
     stages = {
-        "prep": {"cmd": f"{python} -c \"open('prep.txt', 'w').write('x')\"",
+        "prep": {"cmd": f"{PYTHON} -c \"open('prep.txt', 'w').write('x')\"",
                  "outs": ["prep.txt"]},
-        "left": {"cmd": f"{python} step.py left.json {left}", "deps": ["prep.txt", "step.py"],
-                 "params": ["job.threads"], "outs": ["left.json"]},
-        "right": {"cmd": f"{python} step.py right.json {right}",
+        "left": {"cmd": f"{PYTHON} step.py left.json {left or 'meet'} {patience}",
+                 "deps": ["prep.txt", "step.py"], "params": ["job.threads"], "outs": ["left.json"]},
+        "right": {"cmd": f"{PYTHON} step.py right.json {right or 'meet'} {patience}",
                   "deps": ["prep.txt", "step.py"], "params": ["job"], "outs": ["right.json"]},
-        "join": {"cmd": f"{python} -c \"open('join.txt', 'w').write('y')\"",
+        "join": {"cmd": f"{PYTHON} -c \"open('join.txt', 'w').write('y')\"",
                  "deps": ["left.json", "right.json"], "outs": ["join.txt"]},
     }
     if right_meta is not None:
@@ -88,8 +112,14 @@ def make_project(root: Path, threads: int = 1, right: str = "", left: str = "",
         stages["right"]["meta"] = {"threads": right_meta}
     if right == "interrupt-but-finish":
         stages["right"]["cmd"] = [stages["right"]["cmd"],
-                                  f"{python} -c \"open('right.done', 'w').write('z')\""]
+                                  f"{PYTHON} -c \"open('right.done', 'w').write('z')\""]
     (root / "dvc.yaml").write_text(yaml.safe_dump({"stages": stages}))
+
+
+def forget_starts(root: Path) -> None:
+    """Before another run whose stages must meet (or not) afresh."""
+    for marker in (root / "started").glob("*"):
+        marker.unlink()
 
 
 def interval(root: Path, name: str) -> tuple[float, float]:
@@ -140,9 +170,10 @@ def test_single_threaded_stages_run_together_and_the_lock_is_complete(project):
 
 
 def test_stages_with_more_threads_or_one_job_run_one_at_a_time(project):
-    make_project(project, threads=2)
+    make_project(project, threads=2, patience=1.5)  # the first waits that long for the other
     assert parallel_repro.run_stages([], jobs=2, root=str(project))[0] == 0
     assert not overlap(interval(project, "left"), interval(project, "right"))
+    forget_starts(project)
     code, seconds = parallel_repro.run_stages([], force=True, jobs=1, root=str(project))
     assert code == 0 and len(seconds) == 4
     assert not overlap(interval(project, "left"), interval(project, "right"))
@@ -162,14 +193,14 @@ def test_a_stage_meta_threads_decides_over_the_params_it_passes_on():
 def test_a_data_step_declares_its_threads_in_its_meta(project, threads):
     """A stage no param gives a thread count (a data step) says it in dvc.yaml's `meta`, which DVC
     ignores: the lock is complete and clean either way."""
-    make_project(project, right_meta=threads)
+    make_project(project, right_meta=threads, patience=30 if threads == 1 else 1.5)
     assert parallel_repro.run_stages([], jobs=2, root=str(project))[0] == 0
     assert overlap(interval(project, "left"), interval(project, "right")) == (threads == 1)
     assert clean(project)
 
 
 def test_a_named_target_runs_with_what_it_depends_on_only(project):
-    make_project(project)
+    make_project(project, patience=1.5)  # left, run without right, waits no longer for it
     code, seconds = parallel_repro.run_stages(["left"], jobs=2, root=str(project))
     assert code == 0 and set(seconds) == {"prep", "left"}
     assert not (project / "right.json").exists()
@@ -218,6 +249,103 @@ def test_a_stage_stopped_between_its_commands_is_not_locked(project, monkeypatch
     assert (project / "right.json").exists()  # its first command ignored the signal and finished
     assert not (project / "right.done").exists()  # the second never started
     assert set(yaml.safe_load((project / "dvc.lock").read_text())["stages"]) == {"prep"}
+
+
+def test_a_stage_that_finishes_after_the_stop_starts_nothing_downstream(project, monkeypatch,
+                                                                         capsys):
+    """`first` passes the stop on to itself (as Ctrl-C would), notes it and finishes: it is locked,
+    as it finished, but `then`, which its output makes ready, is not started: not even DVC's part
+    of it (which would remove its outputs). Through bash, which execs the command: dash would
+    fork it and die of the signal itself, failing the stage."""
+    monkeypatch.setenv("SHELL", "/bin/bash")
+    subprocess.run([*DVC, "init", "--no-scm", "-q"], cwd=project, check=True)
+    (project / "step.py").write_text(STEP)
+    (project / "dvc.yaml").write_text(yaml.safe_dump({"stages": {
+        "first": {"cmd": f"{PYTHON} step.py first.json interrupt-but-finish 30",
+                  "deps": ["step.py"], "outs": ["first.json"]},
+        "then": {"cmd": f"{PYTHON} -c \"open('then.txt', 'w').write('t')\"",
+                 "deps": ["first.json"], "outs": ["then.txt"]}}}))
+    monkeypatch.setenv("RUNNER_PID", str(os.getpid()))
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert code == 130 and set(seconds) == {"first"}
+    assert set(yaml.safe_load((project / "dvc.lock").read_text())["stages"]) == {"first"}
+    assert "Running stage 'then'" not in capsys.readouterr().out
+    assert not (project / parallel_repro.LOG_DIR / "then.log").exists()
+    assert not (project / "then.txt").exists()
+
+
+# a resumable training, as ours: steps within epochs, a checkpoint in a persist output after every
+# epoch and, on SIGTERM, mid-epoch at the step it stopped at (then exit 143); each run notes the
+# state it started from. Its first run waits at epoch 1, step 2 for the test to stop it
+TRAINING = textwrap.dedent("""\
+    import json, pathlib, signal, sys, time
+    EPOCHS, STEPS, STOP_AT = 3, 4, [1, 2]
+    stop = []
+    signal.signal(signal.SIGTERM, lambda signum, _: stop.append(signum))
+    checkpoint = pathlib.Path("checkpoints/last.json")
+    checkpoint.parent.mkdir(exist_ok=True)
+    first_run = not checkpoint.exists()
+    state = {"epoch": 0, "step": 0, "done": []} if first_run else json.loads(checkpoint.read_text())
+    with open("attempts.txt", "a") as attempts:
+        attempts.write(json.dumps(state) + "\\n")
+    done = state["done"]
+    for epoch in range(state["epoch"], EPOCHS):
+        for step in range(state["step"] if epoch == state["epoch"] else 0, STEPS):
+            if first_run and [epoch, step] == STOP_AT:
+                pathlib.Path("stop_me").touch()
+                deadline = time.monotonic() + 30
+                while not stop and time.monotonic() < deadline:
+                    time.sleep(0.05)
+            if stop:
+                checkpoint.write_text(json.dumps({"epoch": epoch, "step": step, "done": done}))
+                sys.exit(128 + stop[0])
+            done.append([epoch, step])
+        checkpoint.write_text(json.dumps({"epoch": epoch + 1, "step": 0, "done": done}))
+    pathlib.Path("model.json").write_text(json.dumps(done))
+    """)
+
+
+def signal_when(path: Path, signum: int, timeout: float = 60) -> threading.Thread:
+    """Send this process `signum` once `path` exists (as the session ending `make repro` would)."""
+    driver = os.getpid()
+
+    def wait_then_signal():
+        deadline = time.monotonic() + timeout
+        while not path.exists():
+            if time.monotonic() > deadline:
+                return
+            time.sleep(0.05)
+        os.kill(driver, signum)
+
+    thread = threading.Thread(target=wait_then_signal, daemon=True)
+    thread.start()
+    return thread
+
+
+@SHELLS
+def test_a_rerun_after_a_stop_resumes_the_training_at_its_step(project, monkeypatch, shell):
+    """`make repro` stopped mid-epoch, then run again: the stage's checkpoint folder (a persist
+    output) is as the stop left it, and the training goes on at the step it stopped at; every step
+    is trained exactly once."""
+    monkeypatch.setenv("SHELL", shell)
+    subprocess.run([*DVC, "init", "--no-scm", "-q"], cwd=project, check=True)
+    (project / "train.py").write_text(TRAINING)
+    (project / "dvc.yaml").write_text(yaml.safe_dump({"stages": {"train": {
+        "cmd": f"{PYTHON} train.py", "deps": ["train.py"],
+        "outs": ["model.json", {"checkpoints": {"persist": True}}]}}}))
+    signal_when(project / "stop_me", signal.SIGTERM)
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))
+    assert code == 128 + signal.SIGTERM and seconds == {}
+    stopped = json.loads((project / "checkpoints" / "last.json").read_text())
+    assert (stopped["epoch"], stopped["step"]) == (1, 2)  # mid-epoch
+
+    code, seconds = parallel_repro.run_stages([], jobs=2, root=str(project))  # the rerun
+    assert code == 0 and set(seconds) == {"train"}
+    attempts = [json.loads(line) for line in (project / "attempts.txt").read_text().splitlines()]
+    assert attempts == [{"epoch": 0, "step": 0, "done": []}, stopped]  # from it, intact
+    every_step = [[epoch, step] for epoch in range(3) for step in range(4)]
+    assert json.loads((project / "model.json").read_text()) == every_step
+    assert clean(project)
 
 
 def test_output_beside_other_stages_is_labelled_and_progress_bars_thinned(capsys):

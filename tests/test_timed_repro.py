@@ -153,7 +153,7 @@ def test_with_jobs_parallel_repro_runs_the_stages_each_clocked(tmp_path, monkeyp
     monkeypatch.setattr(timed_repro, "current_stages", lambda: {"tracks", "windows@30", "report"})
     calls, written = [], []
 
-    def fake_parallel(args, jobs, on_stage_done, address=None):
+    def fake_parallel(args, jobs, on_stage_done, address=None, insecure=False, dashboard=None):
         calls.append((args, jobs))
         for name, seconds in (("tracks", 30.5), ("windows@30", 60.0)):
             on_stage_done(name, seconds)
@@ -169,6 +169,26 @@ def test_with_jobs_parallel_repro_runs_the_stages_each_clocked(tmp_path, monkeyp
     assert record["stages"]["windows@30"]["seconds"] == 60.0
     assert record["last_run"]["jobs"] == 2 and record["last_run"]["exit_code"] == 0
     assert record["last_run"]["command"] == "tools/parallel_repro.py --jobs 2 -f"
+
+
+def test_insecure_and_dashboard_are_taken_out_and_passed_on(tmp_path, monkeypatch):
+    """`make repro DASK_INSECURE=1 DASHBOARD=...` reaches parallel_repro; neither goes to dvc."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(timed_repro, "current_stages", lambda: {"tracks"})
+    calls = []
+
+    def fake_parallel(args, jobs, on_stage_done, address=None, insecure=False, dashboard=None):
+        calls.append((args, jobs, address, insecure, dashboard))
+        return 0, {}
+
+    monkeypatch.setattr(timed_repro, "run_parallel", fake_parallel)
+    assert timed_repro.main(["--jobs", "1", "--dashboard", "0.0.0.0:8787", "tracks"]) == 0
+    assert timed_repro.main(["--jobs", "2", "--address", "tcp://192.0.2.1:8786", "--insecure",
+                             "-f"]) == 0
+    assert calls == [(["tracks"], 1, None, False, "0.0.0.0:8787"),  # the dashboard: parallel
+                     (["-f"], 2, "tcp://192.0.2.1:8786", True, None)]
+    with pytest.raises(SystemExit, match="--dashboard needs"):
+        timed_repro.main(["--dashboard"])
 
 
 def test_parallel_runs_take_stage_names_and_force_only():

@@ -27,8 +27,17 @@ The default cluster is a LocalCluster sized to this machine (`local_worker_specs
 one worker with `--jobs` threads (default: the CPU count), so on 2 cores two single-threaded stages
 run at once and the others alone, as before Dask; with N GPUs (`nvidia-smi -L`, or
 CUDA_VISIBLE_DEVICES when set; torch is not imported here) N worker processes, one GPU each, the
-cores shared out. `--address tcp://host:port` uses a running scheduler instead (dask-jobqueue,
+cores shared out. `--address tls://host:port` uses a running scheduler instead (dask-jobqueue,
 dask-kubernetes: docs/cluster.md).
+
+The network (Dask's comms are unauthenticated without TLS, and a worker runs whatever it is sent):
+the local cluster, its scheduler, its workers (the in-process one and the GPU Nanny processes) and
+their dashboards listen on 127.0.0.1 only; `--dashboard HOST:PORT` opens the scheduler's dashboard
+elsewhere, with a warning (it shows every stage's command and log). `--address` to a scheduler on
+another machine must be `tls://`, with certificates from Dask's config (`distributed.comm.tls.*`,
+or its DASK_DISTRIBUTED__COMM__TLS__* environment variables); plain `tcp://` is refused before
+anything runs (`check_address`) unless `--insecure` says the network is trusted, which the run then
+prints.
 
 Before anything is written the run checks that it can work (`SetupError`, each check within
 CONNECT_TIMEOUT_S): the scheduler answers and has a worker, every worker sees the project at the
@@ -54,7 +63,8 @@ dvc.lock holds exactly the stages that finished. SIGINT / SIGTERM to the driver 
 every running command's process group on every worker (`stage_worker.stop_commands`); the run
 ends with 128 + the signal's number.
 
-    python tools/parallel_repro.py [--jobs N] [--address tcp://host:port] [-f] [-s] [targets...]
+    python tools/parallel_repro.py [--jobs N] [--dashboard HOST:PORT]
+                                   [--address tls://host:port [--insecure]] [-f] [-s] [targets...]
 """
 
 from __future__ import annotations
@@ -64,6 +74,7 @@ import codecs
 import contextlib
 import importlib.util
 import io
+import ipaddress
 import os
 import re
 import shutil
@@ -83,6 +94,12 @@ PROGRESS_EVERY_S = 30.0  # how often a concurrent stage's progress bar (lines en
 CONNECT_TIMEOUT_S = 30  # to reach the scheduler; as long again for a first worker, and for
 # every worker to say which project it sees
 LOG_DIR = ".dvc/tmp/stage-logs"  # DVC's tmp: neither git nor DVC track it
+LOOPBACK = "127.0.0.1"  # where the local cluster listens: this machine only
+LOOPBACK_ANY_PORT = f"{LOOPBACK}:0"  # a free port (a fixed one may be taken), loopback only
+ENCRYPTED_SCHEMES = {"tls", "wss"}  # Dask comms that authenticate both ends with certificates
+TLS_SETTINGS = ("Dask's config (distributed.comm.tls.ca-file, .client.cert, .client.key) or the "
+                "environment (DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._CLIENT__CERT, "
+                "..._CLIENT__KEY)")
 
 
 class SetupError(RuntimeError):
@@ -221,33 +238,156 @@ QUIET_LOCAL_CLUSTER = {
 }
 
 
-def start_local_cluster(cores: int, gpus: list[str] | None = None):
+def start_local_cluster(cores: int, gpus: list[str] | None = None,
+                        dashboard: str = LOOPBACK_ANY_PORT):
     """The default cluster: `local_worker_specs` of this machine (its `machine_gpus` unless
     `gpus` says). Without GPUs its one worker runs in this process (its tasks only wait on child
-    processes); GPU workers are processes, each with its CUDA_VISIBLE_DEVICES."""
+    processes); GPU workers are processes, each with its CUDA_VISIBLE_DEVICES. Everything listens
+    on loopback only, but the scheduler's dashboard where `dashboard` (HOST:PORT) says; its plots
+    need bokeh."""
     import dask
     import psutil
     from distributed import LocalCluster, Nanny, Scheduler, SpecCluster
 
     gpus = machine_gpus() if gpus is None else gpus
-    dashboard = ":0"  # a free port (None would mean 8787, maybe taken); its plots need bokeh
     specs = local_worker_specs(cores, gpus, psutil.virtual_memory().total / 2**30)
     with dask.config.set({"distributed.scheduler.allowed-failures": 1, **QUIET_LOCAL_CLUSTER}):
-        if not gpus:
+        if not gpus:  # scheduler and worker talk in-process (inproc://): only their HTTP listens
             return LocalCluster(n_workers=1, threads_per_worker=specs[0]["nthreads"],
                                 resources=specs[0]["resources"], processes=False,
-                                dashboard_address=dashboard)
-        scheduler = {"cls": Scheduler, "options": {"dashboard_address": dashboard}}
-        workers = {f"gpu{gpu}": {"cls": Nanny, "options": spec} for gpu, spec in zip(gpus, specs)}
+                                dashboard_address=dashboard,
+                                worker_dashboard_address=LOOPBACK_ANY_PORT)
+        scheduler = {"cls": Scheduler,
+                     "options": {"host": LOOPBACK, "dashboard_address": dashboard}}
+        # config: a worker its Nanny restarts (after the OOM killer) stays quiet too; the Nanny's
+        # own copy of Dask's config shares the nested dicts this `with` puts back on exit
+        workers = {f"gpu{gpu}": {"cls": Nanny, "options": {
+            **spec, "host": LOOPBACK, "dashboard_address": LOOPBACK_ANY_PORT,
+            "config": QUIET_LOCAL_CLUSTER}} for gpu, spec in zip(gpus, specs)}
         return SpecCluster(workers=workers, scheduler=scheduler, name="ynet-repro")
 
 
-def connect(address: str, timeout: float):
-    """A client of the scheduler at `address` with at least one worker, or SetupError naming it."""
+def scheme_and_host(address: str) -> tuple[str, str]:
+    """A Dask address's protocol and host, as Dask reads it (a bare host:port is tcp):
+    "tls://[::1]:8786" -> ("tls", "::1"); inproc -> ("inproc", "")."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    scheme, location = parse_address(address, strict=False)
+    if scheme == "inproc":
+        return scheme, ""
+    try:
+        return scheme, parse_host_port(location, default_port=0)[0]
+    except ValueError as error:
+        raise SetupError(f"--address {address!r} is not a Dask scheduler address "
+                         f"(tls://host:port): {error}") from None
+
+
+def is_loopback(host: str) -> bool:
+    """127.0.0.0/8, ::1 or `localhost`: reachable from this machine only. Any other name counts
+    as the network; it is not looked up (no traffic before the address is accepted)."""
+    if host.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def plain_network(address: str) -> bool:
+    """Whether `address` reaches another machine without TLS (tcp://, ws://, ucx://, host:port):
+    unauthenticated and unencrypted, so whoever reaches it can run code on the workers."""
+    scheme, host = scheme_and_host(address)
+    return scheme not in ENCRYPTED_SCHEMES | {"inproc"} and not is_loopback(host)
+
+
+def address_refusal(address: str, insecure: bool) -> str | None:
+    """Why `--address` is refused (None: it is not): plain TCP to another machine without
+    `--insecure`."""
+    if insecure or not plain_network(address):
+        return None
+    from distributed.comm.addressing import parse_address
+
+    location = parse_address(address, strict=False)[1]
+    return (f"refusing the Dask scheduler at {address}: plain TCP to another machine is "
+            f"unauthenticated and unencrypted, so anyone who can reach that scheduler or its "
+            f"workers can run code on them. Start it with TLS and use tls://{location}, its "
+            f"certificates named in {TLS_SETTINGS}, as docs/cluster.md shows; or, on a network "
+            f"you trust, add --insecure (make repro DASK_INSECURE=1)")
+
+
+def insecure_notice(address: str, insecure: bool) -> str | None:
+    """What the run prints when `--insecure` lets plain TCP to another machine through."""
+    if not (insecure and plain_network(address)):
+        return None
+    return (f"parallel_repro: --insecure: the Dask scheduler at {address} is reached over plain "
+            f"TCP, unauthenticated and unencrypted: anyone on that network can run code on its "
+            f"workers. Only on a network you trust (docs/cluster.md)")
+
+
+def missing_tls_settings(ca_file: str | None, client_cert: str | None) -> str | None:
+    """What a tls:// address lacks to connect (None: nothing): the CA that signed the cluster's
+    certificates and the driver's own certificate (its key may be in the same file)."""
+    wanted = {"a CA file": ca_file, "a client certificate": client_cert}
+    missing = [name for name, value in wanted.items() if not value]
+    if not missing:
+        return None
+    return f"{' and '.join(missing)}: set {TLS_SETTINGS}"
+
+
+def check_address(address: str, insecure: bool = False):
+    """The Security to reach `address` with (Dask's config; None but for tls:// and wss://), or a
+    SetupError, before anything runs: plain TCP to another machine without `insecure`, or TLS
+    without certificates."""
+    scheme, _ = scheme_and_host(address)
+    refusal = address_refusal(address, insecure)
+    if refusal:
+        raise SetupError(refusal)
+    if scheme not in ENCRYPTED_SCHEMES:
+        return None
+    from distributed import Security
+
+    security = Security()  # distributed.comm.tls.*, from Dask's config files and environment
+    missing = missing_tls_settings(security.tls_ca_file, security.tls_client_cert)
+    if missing:
+        raise SetupError(f"the Dask scheduler at {address} needs TLS certificates: {missing}")
+    return security
+
+
+def dashboard_notice(dashboard: str) -> str | None:
+    """What the run prints when the local dashboard listens beyond loopback ("" or 0.0.0.0: on
+    every interface)."""
+    host = dashboard.rsplit(":", 1)[0].strip("[]") if ":" in dashboard else dashboard
+    if is_loopback(host):
+        return None
+    return (f"parallel_repro: the Dask dashboard listens on {dashboard}, open to the network: "
+            f"without any login, whoever reaches it sees every stage's command and log and the "
+            f"workers' logs (docs/cluster.md)")
+
+
+def dashboard_link(host: str, port: int) -> str:
+    """The dashboard's address to open in a browser: the host it listens on, or this machine's
+    name when that is every interface."""
+    import socket
+
+    if host in ("", "0.0.0.0", "::"):
+        host = socket.gethostname()
+    return f"http://[{host}]:{port}/status" if ":" in host else f"http://{host}:{port}/status"
+
+
+def local_dashboard_link(cluster) -> str | None:
+    """`dashboard_link` of a local cluster's scheduler (in this process), None if it has none.
+    Dask's own link names the machine's address even when the dashboard is on loopback."""
+    server = getattr(getattr(cluster, "scheduler", None), "http_server", None)
+    return dashboard_link(server.address, server.port) if server is not None else None
+
+
+def connect(address: str, timeout: float, security=None):
+    """A client of the scheduler at `address` (with `security` for tls://) with at least one
+    worker, or SetupError naming it."""
     from distributed import Client
 
     try:
-        client = Client(address, timeout=timeout, set_as_default=False)
+        client = Client(address, timeout=timeout, set_as_default=False, security=security)
     except (OSError, TimeoutError) as error:
         raise SetupError(f"cannot reach the Dask scheduler at {address} within {timeout:.0f} s "
                          f"({type(error).__name__}: {error})") from None
@@ -305,12 +445,13 @@ def check_workers(client, root: str, timeout: float = CONNECT_TIMEOUT_S
             for address in seen if address in workers}  # one that joined since is not checked
 
 
-def cluster_line(client, offered: Mapping[str, Mapping[str, float]]) -> str:
+def cluster_line(client, offered: Mapping[str, Mapping[str, float]],
+                 link: str | None = None) -> str:
     """What the run prints first: the scheduler, its workers' resources and where its dashboard
-    is (whose plots need bokeh: the `[cluster]` extra)."""
+    is (`link`, else Dask's; its plots need bokeh: the `[cluster]` extra)."""
     info = client.scheduler_info()
     port = (info.get("services") or {}).get("dashboard")
-    dashboard = client.dashboard_link if port else "none"
+    dashboard = (link or client.dashboard_link) if port else "none"
     if port and importlib.util.find_spec("bokeh") is None:
         dashboard += " (its plots need bokeh: pip install -c requirements.lock -e '.[cluster]')"
     workers = ", ".join(str(dict(resources)) for resources in offered.values())
@@ -379,17 +520,30 @@ class LogTail:
 def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_item: bool = False,
                on_stage_done: Callable[[str, float], None] | None = None,
                root: str = ".", address: str | None = None,
-               connect_timeout: float = CONNECT_TIMEOUT_S) -> tuple[int, dict[str, float]]:
+               connect_timeout: float = CONNECT_TIMEOUT_S, insecure: bool = False,
+               dashboard: str | None = None) -> tuple[int, dict[str, float]]:
     """Reproduce `targets` (all stages if none) and what they depend on (with `single_item`, the
-    targets alone, as `dvc repro --single-item`) on the cluster at `address`, or on a LocalCluster
-    with `jobs` threads; (exit code, wall seconds of each stage that ran: DVC's part plus the
-    command's). `on_stage_done(name, seconds)` follows each lock update. Raises SetupError before
-    anything is written if the cluster cannot run these stages."""
+    targets alone, as `dvc repro --single-item`) on the cluster at `address` (`check_address`;
+    `insecure` lets plain TCP to another machine through), or on a LocalCluster with `jobs`
+    threads and its dashboard at `dashboard` (default: loopback); (exit code, wall seconds of each
+    stage that ran: DVC's part plus the command's). `on_stage_done(name, seconds)` follows each
+    lock update. Raises SetupError before anything is written if the cluster cannot run these
+    stages, and before anything runs if `address` is refused."""
     import cloudpickle
     from distributed import Client
     from dvc.repo import Repo, lock_repo
     from dvc.repo.reproduce import collect_stages, plan_repro
 
+    security = None
+    if address is not None:
+        if dashboard is not None:
+            raise SetupError(f"--dashboard is for the local cluster; the scheduler at {address} "
+                             f"serves its own")
+        security = check_address(address, insecure)
+    for notice in (insecure_notice(address, insecure) if address else None,
+                   dashboard_notice(dashboard) if dashboard else None):
+        if notice:
+            print(notice, file=sys.stderr, flush=True)
     repo = Repo(root)
     with lock_repo(repo):
         graph = repo.index.graph
@@ -404,18 +558,22 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
                            declared_device(params[name]), meta_of(stage).get("memory_gb"))
                     for name, stage in stages.items()}
 
-    cloudpickle.register_pickle_by_value(stage_worker)  # workers need not import tools/
-    cluster = start_local_cluster(jobs) if address is None else None
+    # workers need not import tools/: client.run's functions and the plugin go by value (the
+    # stage's task too, through ByValue, as a task graph is pickled another way)
+    cloudpickle.register_pickle_by_value(stage_worker)
+    cluster = (start_local_cluster(jobs, dashboard=dashboard or LOOPBACK_ANY_PORT)
+               if address is None else None)
     try:
         client = (Client(cluster, set_as_default=False) if cluster is not None
-                  else connect(address, connect_timeout))
+                  else connect(address, connect_timeout, security))
     except BaseException:
         if cluster is not None:
             cluster.close()
         raise
     try:
         offered = check_workers(client, repo.root_dir, connect_timeout)
-        print(cluster_line(client, offered), flush=True)
+        link = local_dashboard_link(cluster) if cluster is not None else None
+        print(cluster_line(client, offered, link), flush=True)
         whole = min(int(offer.get("threads", 1)) for offer in offered.values())
         has_gpus = any(offer.get("GPU", 0) >= 1 for offer in offered.values())
         wanted = {name: stage_resources(kind, device, memory, whole, has_gpus)
@@ -435,6 +593,24 @@ def run_stages(targets: list[str], force: bool = False, jobs: int = 2, single_it
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+class ByValue:
+    """`func`, pickled by value (cloudpickle) even inside a task graph: Dask pickles a graph with
+    plain pickle, which names a function's module, and the scheduler (which unpickles graphs) and
+    the workers of an existing cluster cannot import tools/."""
+
+    def __init__(self, func: Callable):
+        self.func = func
+
+    def __call__(self, *args, **kwargs):
+        return self.func(*args, **kwargs)
+
+    def __reduce__(self):
+        import cloudpickle
+
+        cloudpickle.register_pickle_by_value(sys.modules[self.func.__module__])
+        return cloudpickle.loads, (cloudpickle.dumps(self.func),)
 
 
 class StageRunner:
@@ -505,7 +681,7 @@ class StageRunner:
         log = self.log_dir / (re.sub(r"[^\w@.-]", "_", name) + ".log")
         log.write_bytes(b"")
         future = self.client.submit(
-            stage_worker.run_commands, commands, kwargs["cwd"], env, str(log),
+            ByValue(stage_worker.run_commands), commands, kwargs["cwd"], env, str(log),
             "GPU" in self.wanted[name], key=f"stage-{name}-{uuid.uuid4().hex[:8]}",
             resources=self.wanted[name], retries=1, pure=False)
         done = threading.Event()
@@ -622,12 +798,20 @@ def main(argv: list[str] | None = None) -> int:
                         help="the targets alone, not what they depend on")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                         help="the local cluster's threads (default: the CPU count)")
-    parser.add_argument("--address", help="a running Dask scheduler, tcp://host:port "
-                        "(default: a LocalCluster sized to this machine)")
+    parser.add_argument("--address", help="a running Dask scheduler, tls://host:port with "
+                        "certificates from Dask's config (tcp:// on loopback only; default: a "
+                        "LocalCluster sized to this machine, on loopback)")
+    parser.add_argument("--insecure", action="store_true",
+                        help="allow a plain tcp:// --address on another machine: on a network "
+                        "you trust only (whoever reaches the cluster can run code on it)")
+    parser.add_argument("--dashboard", help="where the local cluster's dashboard listens, "
+                        "HOST:PORT (default: 127.0.0.1 and a free port; another host opens it "
+                        "to the network: it shows every stage's command and log)")
     args = parser.parse_args(argv)
     try:
         code, seconds = run_stages(args.targets, force=args.force, jobs=args.jobs,
-                                   single_item=args.single_item, address=args.address)
+                                   single_item=args.single_item, address=args.address,
+                                   insecure=args.insecure, dashboard=args.dashboard)
     except SetupError as error:
         print(f"parallel_repro: {error}", file=sys.stderr)
         return 2

@@ -16,9 +16,12 @@ With `--jobs N` (what `make repro` passes: the CPU count, 2 on our machine) the 
 through tools/parallel_repro.py, which runs up to N single-threaded stages at once; each stage is
 then clocked from its start to its lock update as before, so on 2 cores the stages' times sum to
 more than the run's wall time (the record's `seconds`). parallel_repro runs the commands on a Dask cluster: a LocalCluster of
-this machine, or with `--address tcp://host:port` (which implies the parallel run) a running one.
+this machine, listening on loopback only (`--dashboard HOST:PORT` opens its dashboard wider, with
+a warning), or with `--address tls://host:port` (which implies the parallel run) a running one: a
+plain tcp:// address on another machine is refused before anything runs, unless `--insecure`.
 
-    python tools/timed_repro.py [--jobs N] [--address tcp://host:port] [dvc repro arguments...]
+    python tools/timed_repro.py [--jobs N] [--dashboard HOST:PORT]
+                                [--address tls://host:port [--insecure]] [dvc repro arguments...]
 """
 
 from __future__ import annotations
@@ -81,8 +84,9 @@ def run_dvc(args: list[str], on_stage_done: Callable[[list[tuple[float, str]]], 
     """`dvc <args>`, its output echoed and stamped line by line; (exit code, stamped lines).
     `on_stage_done(stamped lines so far)` runs after each lock update (a stage finished)."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}  # dvc's own lines must arrive when printed
-    stamped = []
-    with subprocess.Popen(["dvc", *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+    stamped = []  # dvc of the Python running this, whatever PATH says
+    with subprocess.Popen([sys.executable, "-m", "dvc", *args], stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT,
                           text=True, bufsize=1, env=env) as process:
         for line in process.stdout:
             stamped.append((time.monotonic(), line))
@@ -107,19 +111,30 @@ def split_jobs(args: list[str]) -> tuple[int, list[str]]:
     return jobs, args[:at] + args[at + 2:]
 
 
-def split_address(args: list[str]) -> tuple[str | None, list[str]]:
-    """(--address A, the other arguments): ["--address", "tcp://h:8786", "-f"] -> ("tcp://h:8786",
-    ["-f"]); None without it."""
-    if "--address" not in args:
+def split_value(args: list[str], flag: str, what: str) -> tuple[str | None, list[str]]:
+    """(the value after `flag`, the other arguments): split_value(["--address", "tls://h:8786",
+    "-f"], "--address", ...) -> ("tls://h:8786", ["-f"]); None without it."""
+    if flag not in args:
         return None, list(args)
-    at = args.index("--address")
+    at = args.index(flag)
     if at + 1 >= len(args):
-        raise SystemExit("timed_repro: --address needs a scheduler address, tcp://host:port")
+        raise SystemExit(f"timed_repro: {flag} needs {what}")
     return args[at + 1], args[:at] + args[at + 2:]
 
 
+def split_address(args: list[str]) -> tuple[str | None, list[str]]:
+    """(--address A, the other arguments); None without it."""
+    return split_value(args, "--address", "a scheduler address, tls://host:port")
+
+
+def split_flag(args: list[str], flag: str) -> tuple[bool, list[str]]:
+    """(whether `flag` is there, the other arguments)."""
+    return flag in args, [arg for arg in args if arg != flag]
+
+
 def run_parallel(args: list[str], jobs: int, on_stage_done: Callable[[str, float], None],
-                 address: str | None = None) -> tuple[int, dict[str, float]]:
+                 address: str | None = None, insecure: bool = False,
+                 dashboard: str | None = None) -> tuple[int, dict[str, float]]:
     """tools/parallel_repro.py's run of `args`: stage names, -f / --force, -s / --single-item."""
     import parallel_repro
 
@@ -132,7 +147,21 @@ def run_parallel(args: list[str], jobs: int, on_stage_done: Callable[[str, float
     try:
         return parallel_repro.run_stages(targets, force=bool(flags & {"-f", "--force"}), jobs=jobs,
                                          single_item=bool(flags & {"-s", "--single-item"}),
-                                         on_stage_done=on_stage_done, address=address)
+                                         on_stage_done=on_stage_done, address=address,
+                                         insecure=insecure, dashboard=dashboard)
+    except parallel_repro.SetupError as error:
+        raise SystemExit(f"timed_repro: {error}") from None
+
+
+def refuse_address(address: str | None, insecure: bool) -> None:
+    """Stop before anything is written or run if `address` is one parallel_repro refuses (plain
+    TCP to another machine without --insecure, TLS without certificates)."""
+    if address is None:
+        return
+    import parallel_repro
+
+    try:
+        parallel_repro.check_address(address, insecure)
     except parallel_repro.SetupError as error:
         raise SystemExit(f"timed_repro: {error}") from None
 
@@ -140,7 +169,10 @@ def run_parallel(args: list[str], jobs: int, on_stage_done: Callable[[str, float
 def main(argv: list[str] | None = None) -> int:
     jobs, args = split_jobs(sys.argv[1:] if argv is None else argv)
     address, args = split_address(args)
-    parallel = jobs > 1 or address is not None
+    dashboard, args = split_value(args, "--dashboard", "where the dashboard listens, HOST:PORT")
+    insecure, args = split_flag(args, "--insecure")
+    refuse_address(address, insecure)
+    parallel = jobs > 1 or address is not None or dashboard is not None
     started = dt.datetime.now(dt.UTC)
     clock = time.monotonic()
     if not STAGE_TIMES.exists():  # the report stage reads it: a first run needs it in place
@@ -149,7 +181,8 @@ def main(argv: list[str] | None = None) -> int:
     current = current_stages()
 
     command = " ".join(["tools/parallel_repro.py", "--jobs", str(jobs),
-                        *(["--address", address] if address else []), *args] if parallel
+                        *(["--address", address] if address else []),
+                        *(["--insecure"] if insecure and address else []), *args] if parallel
                        else ["dvc", "repro", *args])
 
     def record(ran: dict[str, float], code: int | None) -> dict[str, float]:
@@ -172,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
             ran_so_far[name] = seconds
             record(ran_so_far, None)
 
-        code, ran = run_parallel(args, jobs, on_stage_done, address)
+        code, ran = run_parallel(args, jobs, on_stage_done, address, insecure, dashboard)
         record(ran, code)
     if not ran:
         return code
