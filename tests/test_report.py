@@ -291,6 +291,7 @@ def run_report(root: Path) -> Path:
         "--scene-counts", str(root / "reports/data/windows_per_scene.json"),
         "--gallery", str(root / "reports/figures/gallery"),
         "--short-term-seeds", str(root / "studies/short_term_seeds"),
+        "--budget", str(root / "studies/budget"),
         "--manifests", str(root / "manifests"), "--dvc-lock", str(root / "dvc.lock"),
         "--animations", str(root / "reports/figures/animations"),
         "--horizon-figures", str(root / "reports/figures/horizons"),

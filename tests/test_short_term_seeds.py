@@ -11,7 +11,7 @@ import yaml
 from pipeline.report.lookups import MetricsStore
 from pipeline.report.short_term_seeds import (average_range, seed_rows, seed_runs, short_term_seeds,
                                               value_range)
-from pipeline.stages.short_term_baseline_seed import with_training_seed
+from pipeline.runners.studies import with_overrides
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -75,7 +75,7 @@ def test_the_average_range_is_over_the_seeds_run_on_every_fold():
 
 def test_the_seed_run_changes_only_the_training_seed():
     params = yaml.safe_load((REPO / "params.yaml").read_text())
-    changed = with_training_seed(params, 7)
+    changed = with_overrides(params, {"train_baseline.seed": 7})
     assert changed["train_baseline"] == {**params["train_baseline"], "seed": 7}
     assert {k: v for k, v in changed.items() if k != "train_baseline"} == \
         {k: v for k, v in params.items() if k != "train_baseline"}

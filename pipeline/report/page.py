@@ -84,6 +84,7 @@ from pipeline.report.data_and_segmentation import (chain_bias_rows, scene_count_
                                                    window_count_rows)
 from pipeline.report.figures import plot_series
 from pipeline.report.lookups import Absent, Measured, MetricsStore, is_number, load_metrics
+from pipeline.report.budget import budget_runs, budget_section
 from pipeline.report.short_term_seeds import seed_rows, short_term_seeds
 from pipeline.report.provenance import PROTOCOL_KEYS, PROTOCOL_LABELS, PROTOCOLS, load_paper_values
 from pipeline.report.run_provenance import (git_state, lock_outputs, lock_params, machine,
@@ -138,6 +139,7 @@ class Inputs:
     animations: Path | None = None  # stage animations' folder (index.json and the animations)
     horizon_figures: Path | None = None  # stage horizon_analysis' figures folder
     short_term_seeds: Path | None = None  # the study's runs of Tables 1-2's baselines
+    budget: Path | None = None  # the budget-curve study's runs
 
 
 def rel_src(path: Path, html_dir: Path) -> str:
@@ -267,7 +269,9 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
     studies = load_metrics(inputs.short_term_seeds) if inputs.short_term_seeds else None
     seeds = (short_term_seeds(store, studies, (params.get("train_baseline") or {}).get("seed", 0))
              if studies else None)
-    tables = build_tables(paper, store, report_params, params.get("profile"), registered, seeds)
+    curves = budget_runs(load_metrics(inputs.budget)) if inputs.budget else {}
+    tables = build_tables(paper, store, report_params, params.get("profile"), registered, seeds,
+                          curves)
     horizons = (params.get("windows") or {}).get("horizons") or []
 
     def slot(name: str) -> FigureSlot:
@@ -289,6 +293,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
                                  model_colours(registered), slot),
         "seed_spread": seed_spread_section(store),
         "short_term_seeds": seed_rows(seeds) if seeds else [],
+        "budget": budget_section(curves, paper, store, slot),
         "horizon_analysis": horizon_analysis_section(store, inputs.horizon_figures, html_dir,
                                                      dict(table_models(registered))),
         "animations": animation_section(inputs.animations, html_dir),

@@ -18,10 +18,12 @@ from pipeline.models import ModelEntry
 from pipeline.report.common import (DATASETS, LONG_TERM_KE, LONG_TERM_TF, METRICS, PIPELINE_MODELS,
                                     relative_difference)
 from pipeline.report.lookups import Absent, Measured, MetricsStore, lookup, lookup_grid
-from pipeline.report.provenance import (PROTOCOLS, CellSource, SourceNote, Why, difference_lines,
-                                        glance_counts, long_term_score, mean_of, seed_range,
+from pipeline.report.provenance import (PROTOCOLS, BudgetPoint, CellSource, SourceNote, Why,
+                                        difference_lines, glance_counts, long_term_score, mean_of,
+                                        seed_range,
                                         short_term_score, source_notes, test_selected_score,
                                         under_protocol, why_differs, with_provenance)
+from pipeline.report.budget import LONG_TERM_BENCHMARK, BudgetRun, budget_point
 from pipeline.report.series import Series
 from pipeline.report.short_term_seeds import ShortTermSeeds
 
@@ -123,11 +125,13 @@ def paper_cell(paper: float | None, ours: Measured | Absent | None, params: Repo
                source: CellSource | None, name: str, own: Measured | Absent | None = None,
                joint: Measured | Absent | None = None,
                seeds: tuple[float, float, int] | None = None,
-               test_selected: Measured | Absent | None = None) -> Cell:
+               test_selected: Measured | Absent | None = None,
+               budget: BudgetPoint | None = None) -> Cell:
     """`compare` on our headline, then under the cell's own protocol (`own`: the difference and
     colour follow it where it was scored) and whether the cell matches or why not (`seeds`: our
     range over training seeds, where trained; `test_selected`: ours with upstream's epochs
-    selected on the test set, a compat diagnostic that only names a cause)."""
+    selected on the test set, a compat diagnostic that only names a cause; `budget`: the cell's
+    budget-curve point, the longest training against 1x, which may name the cause)."""
     cell = replace(compare(paper, ours, params, joint), source=source, name=name,
                    test_selected=test_selected)
     if cell.kind != "measured":
@@ -136,7 +140,7 @@ def paper_cell(paper: float | None, ours: Measured | Absent | None, params: Repo
     diff = cell.diff if own_diff is None else own_diff
     selected_diff = (relative_difference(test_selected.mean, paper)
                      if isinstance(test_selected, Measured) else None)
-    why = why_differs(paper, cell.diff, own_diff, params.far, source, seeds, selected_diff)
+    why = why_differs(paper, cell.diff, own_diff, params.far, source, seeds, selected_diff, budget)
     return replace(cell, own=own, diff=diff, band=band(diff, params), why=why)
 
 
@@ -168,6 +172,14 @@ def absent_reason_marks(cells: list[Cell]) -> dict[str, str]:
     return {reason: f"n{i}" for i, reason in enumerate(reasons, 1)}
 
 
+def budget_for(budgets: Mapping[tuple[str, str], list[BudgetRun]] | None, benchmark: str,
+               model: str, metric: str, ours: Measured | Absent | None) -> BudgetPoint | None:
+    """The cell's budget point: its curve's longest run against the curve's 1x (or our headline)."""
+    runs = (budgets or {}).get((benchmark, model))
+    headline = ours.mean if isinstance(ours, Measured) else None
+    return budget_point(runs, metric, headline) if runs else None
+
+
 def ours_if_trained(model: str, find) -> Measured | Absent | None:
     """`find()` for a model this pipeline runs; None (paper only) for any other."""
     return find() if model in PIPELINE_MODELS else None
@@ -180,7 +192,8 @@ def expected(profile: str | None, **settings: int) -> dict[str, Any]:
 
 
 def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
-                    profile: str | None = None, seeds: ShortTermSeeds | None = None) -> Table:
+                    profile: str | None = None, seeds: ShortTermSeeds | None = None,
+                    budgets: Mapping[tuple[str, str], list[BudgetRun]] | None = None) -> Table:
     """Table 1: short-term SDD, K = 20 and K = 5 groups; `seeds`: the baselines' runs over
     training seeds (a cell's range for the cause "seed spread")."""
     cols = spec["columns"]
@@ -195,9 +208,10 @@ def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
             own = under_protocol(source.protocol, metric, lambda key, c=c: short_term_score(
                 store, "sdd", c["model"], key, c["k"]))
             spread = seeds.range("sdd", c["model"], c["k"], metric) if seeds else None
+            budget = budget_for(budgets, "sdd", c["model"], metric, ours) if c["k"] == 20 else None
             cells.append(paper_cell(c[metric], ours, params, source,
                                     f"{c['label']} (K = {c['k']}) {metric.upper()}", own,
-                                    seeds=spread))
+                                    seeds=spread, budget=budget))
         rows.append(Row(metric.upper(), tuple(cells)))
     return Table("sdd_short", spec["number"], spec["title"],
                  "t_p = 3.2 s, t_f = 4.8 s (TrajNet split). Ours: metrics/short_term/sdd.json; "
@@ -227,7 +241,8 @@ def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportPar
 
 
 def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
-                  profile: str | None = None, seeds: ShortTermSeeds | None = None) -> Table:
+                  profile: str | None = None, seeds: ShortTermSeeds | None = None,
+                  budgets: Mapping[tuple[str, str], list[BudgetRun]] | None = None) -> Table:
     """Table 2: ETH/UCY per scene (rows) and model x metric (columns), plus the average;
     `seeds`: the baselines' runs over training seeds, per fold and for the average."""
     columns, per_scene = [], {scene: [] for scene in spec["scenes"]}
@@ -246,7 +261,8 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
                 per_scene[scene].append(paper_cell(
                     m[metric][scene], ours, params, source,
                     f"{m['label']} {metric.upper()} {spec['scene_labels'][scene]}", own,
-                    seeds=spread, test_selected=selected))
+                    seeds=spread, test_selected=selected,
+                    budget=budget_for(budgets, scene, m["model"], metric, ours)))
     rows = [Row(spec["scene_labels"][s], tuple(cells)) for s, cells in per_scene.items()]
     in_column_order = [(m, metric) for m in spec["models"] for metric in METRICS]
     avg = [average_cell(m[metric].get("avg"), [per_scene[s][i] for s in spec["scenes"]], params,
@@ -302,7 +318,8 @@ def with_registered(spec: Mapping, registered: Mapping[str, ModelEntry]) -> dict
 
 
 def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams,
-                   profile: str | None = None) -> Table:
+                   profile: str | None = None,
+                   budgets: Mapping[tuple[str, str], list[BudgetRun]] | None = None) -> Table:
     """Table 3: long term (t_f = 30 s), SDD and inD, baselines and Y-net at K_a = 1, 2, 5, and any
     registered model (`with_registered`)."""
     cols = spec["columns"]
@@ -323,7 +340,8 @@ def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams,
             cells.append(paper_cell(
                 c[metric], ours, params, source,
                 f"{DATASETS[c['dataset']]} {c['label']} (K_a = {c['k_a']}) {metric.upper()}", own,
-                find_long_term_joint(store, c, metric, profile), seeds, selected))
+                find_long_term_joint(store, c, metric, profile), seeds, selected,
+                budget_for(budgets, LONG_TERM_BENCHMARK, c["model"], metric, ours) if sdd else None))
         rows.append(Row(metric.upper(), tuple(cells)))
     columns = tuple(Column(DATASETS[c["dataset"]], c["label"], f"K_a = {c['k_a']}") for c in cols)
     registered = [c["label"] for c in cols if c.get("registered")]
@@ -371,21 +389,24 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams,
 TABLE_BUILDERS = {"sdd_short": table_sdd_short, "eth_ucy": table_eth_ucy,
                   "sdd_long": table_sdd_long, "ttst": table_ttst}
 SHORT_TERM_TABLES = ("sdd_short", "eth_ucy")  # their baselines' seeds: studies/short_term_seeds
+BUDGET_TABLES = ("sdd_short", "eth_ucy", "sdd_long")  # budget curves: studies/budget
 
 
 def build_tables(paper: Mapping, store: MetricsStore, params: ReportParams,
                  profile: str | None = None,
                  registered: Mapping[str, ModelEntry] | None = None,
-                 seeds: ShortTermSeeds | None = None) -> list[Table]:
+                 seeds: ShortTermSeeds | None = None,
+                 budgets: Mapping[tuple[str, str], list[BudgetRun]] | None = None) -> list[Table]:
     """The paper's four tables with ours beside them; `profile`: the one the stages ran under (a
     file of another profile is shown as a mismatch, not compared); `registered`: the models of
     params.yaml `models`, each a column of Table 3 (`with_registered`). Table 4 is Y-net's own
     TTST / CWS ablation: no other model has those switches, so it has no column for them.
-    `seeds`: Tables 1-2's baselines over training seeds."""
+    `seeds`: Tables 1-2's baselines over training seeds; `budgets`: the budget curves' runs."""
     paper = with_provenance(paper)
     specs = {**paper, "sdd_long": with_registered(paper["sdd_long"], registered or {})}
     tables = [annotated(build(specs[key], store, params, profile,
-                              **({"seeds": seeds} if key in SHORT_TERM_TABLES else {})))
+                              **({"seeds": seeds} if key in SHORT_TERM_TABLES else {}),
+                              **({"budgets": budgets} if key in BUDGET_TABLES else {})))
               for key, build in TABLE_BUILDERS.items()]
     return sorted(tables, key=lambda t: t.number)
 

@@ -45,6 +45,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="stage horizon_analysis' figures folder")
     parser.add_argument("--short-term-seeds", type=Path, default=Path("studies/short_term_seeds"),
                         help="the study's runs of Tables 1-2's baselines with other training seeds")
+    parser.add_argument("--budget", type=Path, default=Path("studies/budget"),
+                        help="the budget-curve study's runs")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"),
                         help="read for its `report` and `models` sections only")
     parser.add_argument("--out", type=Path, required=True, help="the HTML page written")
@@ -61,7 +63,8 @@ def main(argv: list[str] | None = None) -> None:
     inputs = Inputs(args.metrics, args.paper, args.scene_counts, args.gallery, args.manifests,
                     own_outputs=own_outputs,
                     stage_times=args.stage_times, animations=args.animations,
-                    horizon_figures=args.horizon_figures, short_term_seeds=args.short_term_seeds)
+                    horizon_figures=args.horizon_figures, short_term_seeds=args.short_term_seeds,
+                    budget=args.budget)
     write_report(inputs, read_lock(args.dvc_lock), report_params, args.out, args.figures,
                  args.plots, args.headline, registered=load_models(params))
 

@@ -23,33 +23,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
-import yaml
-
 from pipeline.config import DATASETS, read_params
-from pipeline.io import write_json, write_text
+from pipeline.io import write_json
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.report.run_provenance import machine
+from pipeline.runners.studies import run_stage, scratch_params
 
-REPO = Path(__file__).resolve().parents[2]
-
-
-def with_training_seed(params: dict, seed: int) -> dict:
-    """`params` with `train_baseline.seed` set to `seed`, nothing else changed."""
-    return {**params, "train_baseline": {**params["train_baseline"], "seed": seed}}
-
-
-def run_stage(stage: str, args: list[str], cwd: Path) -> None:
-    """`python -m pipeline.stages.<stage> args` in `cwd` (where it finds its params.yaml)."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO),
-                                                                     os.environ.get("PYTHONPATH")]))}
-    subprocess.run([sys.executable, "-m", f"pipeline.stages.{stage}", *args], cwd=cwd, env=env,
-                   check=True)
+SEED_KEY = "train_baseline.seed"
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -62,10 +45,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="checkpoints and predictions (kept for resuming; not an output)")
     parser.add_argument("--result", type=Path, required=True, help="the run's record (JSON)")
     args = parser.parse_args(argv)
-    scratch = args.scratch.resolve()
-    scratch.mkdir(parents=True, exist_ok=True)
-    write_text(scratch / "params.yaml", yaml.safe_dump(with_training_seed(read_params(), args.seed),
-                                                       sort_keys=False))
+    scratch = scratch_params(args.scratch.resolve(), read_params(), {SEED_KEY: args.seed})
     run = ["--dataset", args.dataset, "--model", args.model, "--windows", str(args.windows.resolve()),
            "--checkpoint-dir", str(scratch / "model")]
     train_record, run_record = scratch / "train.json", scratch / "run.json"

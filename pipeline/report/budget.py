@@ -1,0 +1,142 @@
+"""Budget curves: does training longer close the gap to the paper? The study `budget_run`
+(studies/dvc.yaml) trains a model afresh for 1x, 2x and 4x the profile's epochs and scores each
+as its headline; its records are in studies/budget/<benchmark>_<model>_x<factor>.json.
+
+Per curve (benchmark, model): the test ADE / FDE at each budget, drawn against the paper's number
+(`plot_budget`), and for a table cell the `BudgetPoint` its cause reads: the longest run against
+the 1x run of the same study (one machine), or against the headline where the study has no 1x.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pipeline.report.figures import _pyplot
+from pipeline.report.lookups import MetricsStore, dig, is_number
+from pipeline.report.provenance import BudgetPoint
+
+METRICS = ("ade", "fde")
+LONG_TERM_BENCHMARK = "sdd_long"  # Table 3 at t_f = 30 s
+
+
+@dataclass(frozen=True)
+class BudgetRun:
+    factor: int
+    epochs: int
+    values: Mapping[str, float]  # "ade", "fde": test, mean over evaluation rounds
+    best_epoch: int | None
+    cpu: str
+    source: str
+
+
+def run_values(record: Mapping[str, Any]) -> dict[str, float]:
+    """Test ADE / FDE of a scoring record: a long-term one ({"ade": {"mean"}}) or a short-term
+    one at its first K ({"k20": {"ade": {"mean"}}})."""
+    ks = record.get("ks")
+    node = record.get(f"k{ks[0]}") if isinstance(ks, list) and ks else record
+    return {metric: float(dig(node, metric, "mean")) for metric in METRICS
+            if is_number(dig(node, metric, "mean"))}
+
+
+def budget_runs(studies: MetricsStore) -> dict[tuple[str, str], list[BudgetRun]]:
+    """(benchmark, model) -> its runs by factor, from the records' names and contents."""
+    curves: dict[tuple[str, str], list[BudgetRun]] = {}
+    for rel, record in sorted(studies.files.items()):
+        name = Path(rel).stem  # <benchmark>_<model>_x<factor>
+        benchmark, _, rest = name.rpartition("_x")[0].rpartition("_")
+        if not (isinstance(record, Mapping) and is_number(record.get("factor")) and benchmark):
+            continue
+        model = rest
+        best = record.get("best_epoch")
+        curves.setdefault((benchmark, model), []).append(BudgetRun(
+            int(record["factor"]), int(record.get("epochs", 0)), run_values(record),
+            int(best) if is_number(best) else None,
+            str(dig(record, "machine", "cpu") or "unknown"), studies.where(rel)))
+    return {key: sorted(runs, key=lambda run: run.factor) for key, runs in curves.items()}
+
+
+def budget_point(runs: list[BudgetRun], metric: str, headline: float | None) -> BudgetPoint | None:
+    """The longest run against the study's own 1x (else `headline`); None without a longer run."""
+    longest = max((run for run in runs if metric in run.values), key=lambda run: run.factor,
+                  default=None)
+    one_x = next((run.values[metric] for run in runs if run.factor == 1 and metric in run.values),
+                 headline)
+    if longest is None or longest.factor <= 1 or one_x is None:
+        return None
+    return BudgetPoint(longest.factor, longest.values[metric], one_x)
+
+
+def plot_budget(runs: list[BudgetRun], paper: Mapping[str, float | None],
+                headline: Mapping[str, float | None], title: str, unit: str, path: Path) -> bool:
+    """Test ADE and FDE against the budget (x the profile's epochs), the paper's number as a
+    dashed line and the headline run as a hollow marker at 1x. False (no file) without a run."""
+    if not runs:
+        return False
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(8, 3.2), dpi=110)
+    for ax, metric in zip(axes, METRICS):
+        points = [(run.factor, run.values[metric]) for run in runs if metric in run.values]
+        ax.plot([x for x, _ in points], [y for _, y in points], marker="o", color="#1f77b4",
+                label="ours, this study")
+        if headline.get(metric) is not None:
+            ax.plot([1], [headline[metric]], marker="s", markerfacecolor="none", linestyle="none",
+                    color="#555555", label="ours, headline run")
+        if paper.get(metric) is not None:
+            ax.axhline(paper[metric], linestyle="--", color="#d62728", label="paper")
+        ax.set_xscale("log", base=2)
+        ax.set_xticks([run.factor for run in runs], [f"{run.factor}x" for run in runs])
+        ax.set_xlabel("training budget (x the profile's epochs)")
+        ax.set_ylabel(f"test {metric.upper()} ({unit})")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, metadata={"Software": None})
+    plt.close(fig)
+    return True
+
+
+def paper_and_headline(benchmark: str, model: str, paper: Mapping[str, Any],
+                       store: MetricsStore) -> tuple[dict[str, float | None], dict[str, float | None], str]:
+    """The paper's numbers, our headline run's and the unit for a curve's benchmark: Table 3's
+    SDD column at K_a = 1, Table 1's K = 20 column, or Table 2's fold."""
+    if benchmark == LONG_TERM_BENCHMARK:
+        column = next((c for c in paper["sdd_long"]["columns"] if c.get("dataset") == "sdd"
+                       and c.get("model") == model and c.get("k_a") == 1), {})
+        ours = {m: dig(store.files.get(f"baselines/{model}_tf30.json"), m, "mean") for m in METRICS}
+        return {m: column.get(m) for m in METRICS}, ours, "px"
+    if benchmark == "sdd":
+        column = next((c for c in paper["sdd_short"]["columns"]
+                       if c.get("model") == model and c.get("k") == 20), {})
+        ours = {m: dig(store.files.get("short_term/sdd.json"), "models", model, "k20", m, "mean")
+                for m in METRICS}
+        return {m: column.get(m) for m in METRICS}, ours, "px"
+    entry = next((e for e in paper["eth_ucy"]["models"] if e.get("model") == model), {})
+    ours = {m: dig(store.files.get(f"short_term/ethucy_{benchmark}.json"), "models", model, m, "mean")
+            for m in METRICS}
+    return {m: dig(entry, m, benchmark) for m in METRICS}, ours, "m"
+
+
+def budget_section(curves: Mapping[tuple[str, str], list[BudgetRun]], paper: Mapping[str, Any],
+                   store: MetricsStore, slot) -> list[dict[str, Any]]:
+    """Each curve drawn (`slot(name)` says where) and described: its runs, and per metric the
+    share of the gap to the paper the longest run closes."""
+    section = []
+    for (benchmark, model), runs in sorted(curves.items()):
+        paper_values, headline, unit = paper_and_headline(benchmark, model, paper, store)
+        figure = slot(f"budget_{benchmark}_{model}.png")
+        title = f"{model} on {benchmark}: test error against training budget"
+        drawn = plot_budget(runs, paper_values, headline, title, unit, figure.path)
+        closes = {}
+        for metric in METRICS:
+            point = budget_point(runs, metric, headline.get(metric))
+            if point is not None and paper_values.get(metric) is not None:
+                closes[metric] = (point.factor, point.closes(paper_values[metric]))
+        section.append({"benchmark": benchmark, "model": model, "unit": unit, "runs": runs,
+                        "paper": paper_values, "headline": headline, "closes": closes,
+                        "src": figure.src if drawn else None})
+    return section

@@ -1,0 +1,82 @@
+"""Budget curves (`pipeline.report.budget`): the study's records read into curves, the point a
+table cell's cause reads, the figure, and the cause on a real table."""
+
+from __future__ import annotations
+
+import pytest
+
+from pipeline.report.budget import budget_point, budget_runs, budget_section, plot_budget
+from pipeline.report.common import FigureSlot
+from pipeline.report.lookups import MetricsStore, load_metrics
+from pipeline.report.tables import build_tables
+from tests.test_report import BANDS, PAPER, data_metrics, model_metrics, write_metrics  # noqa: F401
+from tests.test_report_provenance import RAW, column_cells
+
+
+def long_term(factor: int, ade: float, fde: float) -> dict:
+    return {"ade": {"mean": ade}, "fde": {"mean": fde}, "factor": factor, "epochs": 40 * factor,
+            "best_epoch": 10 * factor, "machine": {"cpu": "test CPU"}}
+
+
+def short_term(factor: int, ade: float, fde: float) -> dict:
+    return {"ks": [20], "k20": {"ade": {"mean": ade}, "fde": {"mean": fde}}, "factor": factor,
+            "epochs": 10 * factor, "machine": {"cpu": "test CPU"}}
+
+
+STUDY = {"sdd_long_pecnet_x1.json": long_term(1, 90.0, 180.0),
+         "sdd_long_pecnet_x4.json": long_term(4, 81.0, 150.0),
+         "sdd_long_pecnet_x2.json": long_term(2, 85.0, 170.0),
+         "zara2_pecnet_x2.json": short_term(2, 0.20, 0.35),
+         "notes.json": {"not": "a run"}}
+
+
+def test_records_become_curves_by_benchmark_and_model_in_budget_order():
+    curves = budget_runs(MetricsStore("studies/budget", STUDY))
+    assert sorted(curves) == [("sdd_long", "pecnet"), ("zara2", "pecnet")]
+    runs = curves[("sdd_long", "pecnet")]
+    assert [(r.factor, r.epochs, r.values["ade"], r.best_epoch) for r in runs] == [
+        (1, 40, 90.0, 10), (2, 80, 85.0, 20), (4, 160, 81.0, 40)]
+    assert runs[0].source == "studies/budget/sdd_long_pecnet_x1.json" and runs[0].cpu == "test CPU"
+    assert curves[("zara2", "pecnet")][0].values == {"ade": 0.20, "fde": 0.35}
+
+
+def test_the_longest_run_is_set_against_the_studys_own_1x_else_the_headline():
+    curves = budget_runs(MetricsStore("studies/budget", STUDY))
+    point = budget_point(curves[("sdd_long", "pecnet")], "ade", headline=82.0)
+    assert (point.factor, point.ours, point.ours_1x) == (4, 81.0, 90.0)  # the study's 1x, not 82
+    assert point.closes(72.0) == pytest.approx(0.5)  # (90 - 81) / (90 - 72)
+    zara2 = budget_point(curves[("zara2", "pecnet")], "fde", headline=0.40)
+    assert (zara2.factor, zara2.ours_1x) == (2, 0.40)  # no 1x in the study: the headline
+    assert budget_point(curves[("zara2", "pecnet")], "fde", headline=None) is None
+    only_1x = budget_runs(MetricsStore("s", {"hotel_pecnet_x1.json": short_term(1, 0.3, 0.5)}))
+    assert budget_point(only_1x[("hotel", "pecnet")], "ade", headline=0.3) is None
+
+
+def test_a_curve_is_drawn_with_its_gap_shares(tmp_path):
+    curves = budget_runs(MetricsStore("studies/budget", STUDY))
+    store = MetricsStore("metrics", {"baselines/pecnet_tf30.json": {"ade": {"mean": 82.0},
+                                                                    "fde": {"mean": 175.0}}})
+    section = budget_section({("sdd_long", "pecnet"): curves[("sdd_long", "pecnet")]}, RAW, store,
+                             lambda name: FigureSlot(tmp_path / name, f"figures/{name}"))
+    (entry,) = section
+    assert entry["paper"] == {"ade": 72.22, "fde": 118.13} and entry["headline"]["ade"] == 82.0
+    assert entry["closes"]["ade"][0] == 4
+    assert entry["closes"]["ade"][1] == pytest.approx((90.0 - 81.0) / (90.0 - 72.22))
+    assert entry["src"] == "figures/budget_sdd_long_pecnet.png"
+    assert (tmp_path / "budget_sdd_long_pecnet.png").stat().st_size > 1000
+    assert not plot_budget([], {}, {}, "t", "px", tmp_path / "none.png")
+
+
+def test_table_3_names_budget_where_4x_closes_half_the_gap(tmp_path):
+    write_metrics(tmp_path / "metrics", data_metrics() | model_metrics())
+    store = load_metrics(tmp_path / "metrics", "metrics")
+    ours = store.files["baselines/pecnet_tf30.json"]["ade"]["mean"]
+    paper = 72.22
+    closing = {"sdd_long_pecnet_x1.json": long_term(1, ours, 300.0),  # 1x = the fixture's headline
+               "sdd_long_pecnet_x4.json": long_term(4, ours - 0.6 * (ours - paper), 299.0)}
+    curves = budget_runs(MetricsStore("studies/budget", closing))
+    table = {t.key: t for t in build_tables(RAW, store, BANDS, budgets=curves)}["sdd_long"]
+    cells = column_cells(table, "SDD", "PECNet")
+    assert cells["ADE"].why.verdict == "budget"
+    assert "4x the epochs closes 60% of the gap" in cells["ADE"].why.detail
+    assert cells["FDE"].why.verdict == "unexplained" and "4x the epochs closes" in cells["FDE"].why.detail
