@@ -1,5 +1,5 @@
 """Tables 1-2's training-seed spread (`pipeline.report.short_term_seeds`) and the study that makes
-its runs (studies/dvc.yaml, `pipeline.stages.short_term_baseline_seed`, tools/run_study.py)."""
+its runs (studies/dvc.yaml, `pipeline.stages.short_term_seed`, tools/run_study.py)."""
 
 from __future__ import annotations
 
@@ -95,3 +95,12 @@ def test_every_study_stage_is_frozen_and_writes_only_committed_records_the_repor
         assert folders <= set(report["deps"]), f"{name}: the report does not depend on {folders}"
     gitignore = (REPO / ".gitignore").read_text()
     assert "/studies" not in gitignore
+
+
+def test_every_study_run_listed_has_its_record_committed():
+    """`dvc repro` stops on a frozen stage whose output is missing: list only made runs."""
+    from dvc.repo import Repo
+    stages = Repo(str(REPO)).stage.collect(str(REPO / "studies/dvc.yaml"))
+    missing = [f"{stage.addressing}: {out}" for stage in stages for out in stage.outs
+               if not (REPO / str(out)).is_file()]
+    assert stages and missing == []

@@ -8,7 +8,7 @@ its scratch folder), its lock entry is written, and the stage stays frozen in dv
 one after the other, in the order given (a target may be a file, a stage or a glob of stages).
 
     python tools/run_study.py studies/dvc.yaml
-    python tools/run_study.py 'studies/dvc.yaml:short_term_baseline_seed@sdd-*' --dry
+    python tools/run_study.py 'studies/dvc.yaml:short_term_seed@sdd-*' --dry
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ HEADLINE_RUN = "short_term/runs/{dataset}_{model}.json"  # in the metrics store
 HEADLINE_CPU = "not recorded in its metrics"
 STUDY_RUN = "{dataset}_{model}_seed{seed}.json"  # in the studies store
 ETHUCY_FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
-SEEDED_MODELS = ("sgan", "pecnet")
+SEEDED_MODELS = ("sgan", "pecnet", "ynet")
 
 
 @dataclass(frozen=True)
