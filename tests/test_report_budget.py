@@ -63,6 +63,7 @@ def test_a_curve_is_drawn_with_its_gap_shares(tmp_path):
     assert entry["closes"]["ade"][0] == 4
     assert entry["closes"]["ade"][1] == pytest.approx((90.0 - 81.0) / (90.0 - 72.22))
     assert entry["src"] == "figures/budget_sdd_long_pecnet.png"
+    assert entry["title"] == "PECNet, Table 3, SDD long term (t_f = 30 s)"
     assert (tmp_path / "budget_sdd_long_pecnet.png").stat().st_size > 1000
     assert not plot_budget([], {}, {}, "t", "px", tmp_path / "none.png")
 

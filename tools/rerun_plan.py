@@ -83,13 +83,16 @@ def downstream(upstream_of: Mapping[str, Iterable[str]], stages: set[str]) -> se
 
 def pipeline_graph(root: Path = Path(".")) -> tuple[dict[str, list[str]], dict[str, set[str]]]:
     """From DVC's own view of dvc.yaml: (stage -> declared params.yaml keys, resolved;
-    stage -> the stages it depends on). Stages declaring no params.yaml key are absent from the first."""
+    stage -> the stages it depends on). Stages declaring no params.yaml key are absent from the
+    first, and so are frozen ones (the studies of studies/dvc.yaml): no change re-runs them."""
     from dvc.dependency.param import ParamsDependency
     from dvc.repo import Repo
 
     index = Repo(str(root)).index
     declared = {}
     for stage in index.stages:
+        if stage.frozen:
+            continue
         for dep in stage.deps:
             if isinstance(dep, ParamsDependency) and Path(dep.def_path).name == "params.yaml":
                 declared.setdefault(stage.addressing, []).extend(dep.params)

@@ -14,12 +14,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from pipeline.model_list import label
 from pipeline.report.figures import _pyplot
 from pipeline.report.lookups import MetricsStore, dig, is_number
 from pipeline.report.provenance import BudgetPoint
 
 METRICS = ("ade", "fde")
 LONG_TERM_BENCHMARK = "sdd_long"  # Table 3 at t_f = 30 s
+BENCHMARK_TITLES = {LONG_TERM_BENCHMARK: "Table 3, SDD long term (t_f = 30 s)",
+                    "sdd": "Table 1, SDD short term (TrajNet)", "eth": "Table 2, ETH fold",
+                    "hotel": "Table 2, HOTEL fold", "univ": "Table 2, UNIV fold",
+                    "zara1": "Table 2, ZARA1 fold", "zara2": "Table 2, ZARA2 fold"}
 
 
 @dataclass(frozen=True)
@@ -129,14 +134,15 @@ def budget_section(curves: Mapping[tuple[str, str], list[BudgetRun]], paper: Map
     for (benchmark, model), runs in sorted(curves.items()):
         paper_values, headline, unit = paper_and_headline(benchmark, model, paper, store)
         figure = slot(f"budget_{benchmark}_{model}.png")
-        title = f"{model} on {benchmark}: test error against training budget"
+        title = f"{label(model)}, {BENCHMARK_TITLES.get(benchmark, benchmark)}"
         drawn = plot_budget(runs, paper_values, headline, title, unit, figure.path)
         closes = {}
         for metric in METRICS:
             point = budget_point(runs, metric, headline.get(metric))
             if point is not None and paper_values.get(metric) is not None:
                 closes[metric] = (point.factor, point.closes(paper_values[metric]))
-        section.append({"benchmark": benchmark, "model": model, "unit": unit, "runs": runs,
+        section.append({"benchmark": benchmark, "model": model, "title": title, "unit": unit,
+                        "runs": runs,
                         "paper": paper_values, "headline": headline, "closes": closes,
                         "src": figure.src if drawn else None})
     return section

@@ -10,7 +10,8 @@ after every epoch and keeps the epoch its validation selects, as the headline do
 
 Kinds:
 - `long_term_baseline` (Table 3): `train_baseline` + `evaluate_baseline` at `--horizon`, on
-  `data/horizon_windows/tf<horizon>.parquet`; epochs key `<model>.<profile>.epochs`.
+  `--windows`, the horizon's table (`data/horizon_windows/tf<horizon>.parquet`); epochs key
+  `<model>.<profile>.epochs`.
 - `short_term_baseline` (Tables 1-2): `train_short_term_baseline` + `evaluate_short_term_baseline`
   on `--dataset`; epochs key `short_term_models.<profile>.epochs.<model>.<sdd|ethucy>`.
 
@@ -20,7 +21,7 @@ machine. Checkpoints stay in `--scratch` (not an output; a stopped run resumes t
 those of the two stages.
 
     python -m pipeline.stages.budget_run --kind long_term_baseline --model pecnet --horizon 30 \
-        --factor 4 --scratch checkpoints/studies/budget/sdd_long_pecnet_x4 \
+        --factor 4 --windows data/horizon_windows/tf30.parquet --scratch checkpoints/studies/budget/sdd_long_pecnet_x4 \
         --result studies/budget/sdd_long_pecnet_x4.json
 """
 
@@ -55,8 +56,7 @@ def stage_commands(kind: str, model: str, scratch: Path, horizon: int | None, da
     model_dir, train, run = scratch / "model", scratch / "train.json", scratch / "run.json"
     predictions = scratch / "predictions.parquet"
     if kind == "long_term_baseline":
-        table = windows / f"tf{horizon}.parquet"
-        common = ["--model", model, "--horizon", str(horizon), "--table", str(table),
+        common = ["--model", model, "--horizon", str(horizon), "--table", str(windows),
                   "--checkpoint-dir", str(model_dir)]
         return [("train_baseline", [*common, "--metrics", str(train)]),
                 ("evaluate_baseline", [*common, "--metrics", str(run),
@@ -83,7 +83,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--horizon", type=int, help="long_term_baseline: t_f (s)")
     parser.add_argument("--dataset", choices=DATASETS, help="short_term_baseline: the benchmark")
     parser.add_argument("--windows", type=Path, required=True,
-                        help="data/horizon_windows (long-term) or data/short_term (short-term)")
+                        help="the horizon's table (long-term) or data/short_term (short-term)")
     parser.add_argument("--scratch", type=Path, required=True,
                         help="checkpoints and predictions (kept for resuming; not an output)")
     parser.add_argument("--result", type=Path, required=True, help="the run's record (JSON)")
