@@ -106,7 +106,7 @@ def test_the_committed_report_is_what_the_committed_code_renders(rendered):
     assert not found, (f"reports/ is not the output of this code ({RERENDER}):\n" + "\n".join(found))
 
 
-def test_the_check_catches_a_paper_value_changed_without_its_page(rendered, tmp_path):
+def test_the_check_catches_a_paper_value_changed_without_its_page(tmp_path):
     """The same comparison, after a paper value moved: the page must change with it."""
     stage = report_stage()
     copy_inputs(stage, tmp_path)

@@ -52,11 +52,8 @@ def seed_runs(metrics: MetricsStore, studies: MetricsStore, dataset: str, model:
     if isinstance(headline, Mapping) and run_values(headline):
         runs.append(SeedRun(headline_seed, HEADLINE_CPU, True, run_values(headline),
                             metrics.where(rel)))
-    pattern = STUDY_RUN.format(dataset=dataset, model=model, seed="")
     for rel, record in sorted(studies.files.items()):
-        if not (rel.startswith(pattern[:-len(".json")]) and isinstance(record, Mapping)):
-            continue
-        seed = record.get("training_seed")
+        seed = record.get("training_seed") if isinstance(record, Mapping) else None
         if (rel == STUDY_RUN.format(dataset=dataset, model=model, seed=seed)
                 and seed != headline_seed and run_values(record)):
             runs.append(SeedRun(int(seed), str(dig(record, "machine", "cpu") or "unknown"), False,
