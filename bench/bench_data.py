@@ -14,7 +14,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import common  # noqa: E402
-from pipeline.config import WindowParams  # noqa: E402
+from pipeline.config.windows import WindowParams  # noqa: E402
 from pipeline.data.checksums import read_manifest  # noqa: E402
 from pipeline.data.tracks import build_tracks  # noqa: E402
 from pipeline.data.windows import cut_pieces, cut_windows, raw_windows, release_windows  # noqa: E402

@@ -34,15 +34,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench import common  # noqa: E402
 from bench.bench_profiles import N_FUTURE, N_PAST, SMOKE_IMAGE_HW, synthetic_windows  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.config import (CwsParams, EvalParams, TtstParams, load_profile,  # noqa: E402
-                             load_section, read_params)
+from pipeline.config.cws import CwsParams  # noqa: E402
+from pipeline.config.eval import EvalParams  # noqa: E402
+from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
+from pipeline.config.ttst import TtstParams  # noqa: E402
+from pipeline.config.ynet import YnetSettings  # noqa: E402
 from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
 from pipeline.data.window_table import WindowArrays, to_arrays  # noqa: E402
 from pipeline.data.ynet_data import SceneWindows, group_by_scene  # noqa: E402
 from pipeline.device import conv_layout  # noqa: E402
 from pipeline.runners.ynet_scoring import (load_for_scoring, predict_samplings,  # noqa: E402
                                            sequence_settings, setting_samplings)
-from pipeline.config import YnetSettings  # noqa: E402
 from pipeline.data.ynet_data import image_sizes  # noqa: E402
 from ynet.model import YNet  # noqa: E402
 

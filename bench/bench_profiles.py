@@ -54,8 +54,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench import common, projection  # noqa: E402
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from bench.stage_rates import smoke_params, stage_rates  # noqa: E402
-from pipeline.config import (CwsParams, EvalParams, TtstParams, YnetSettings, load_profile,  # noqa: E402
-                             load_section, read_params)
+from pipeline.config.cws import CwsParams  # noqa: E402
+from pipeline.config.eval import EvalParams  # noqa: E402
+from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
+from pipeline.config.ttst import TtstParams  # noqa: E402
+from pipeline.config.ynet import YnetSettings  # noqa: E402
 from pipeline.data.window_table import WindowArrays  # noqa: E402
 from pipeline.data.ynet_data import SceneWindows, group_by_scene  # noqa: E402
 from pipeline.device import (SCORING, TRAINING, conv_layout, describe, select_device,  # noqa: E402

@@ -43,9 +43,12 @@ from bench import common  # noqa: E402
 from pipeline.benchmarks.sdd_long_term import (SDD_LONG_TERM, read_scales,  # noqa: E402
                                                sdd_label_masks)
 from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD  # noqa: E402
-from pipeline.config import (DATASETS, ScorePredictionsParams, ShortTermParams,  # noqa: E402
-                             WindowParams, load_section, read_params)
+from pipeline.config.loading import load_section, read_params  # noqa: E402
+from pipeline.config.score_predictions import ScorePredictionsParams  # noqa: E402
+from pipeline.config.short_term import ShortTermParams  # noqa: E402
+from pipeline.config.windows import WindowParams  # noqa: E402
 from pipeline.data.window_table import conform  # noqa: E402
+from pipeline.dataset_list import SHORT_TERM_DATASETS  # noqa: E402
 from pipeline.harness.predictions import (concat_rounds, predictions_table,  # noqa: E402
                                           write_predictions)
 from pipeline.harness.stored_scores import (score_benchmarks, score_tables,  # noqa: E402
@@ -77,7 +80,8 @@ def score_long_term(root: Path, params_file: Path) -> dict:
     return score_tables(tables, root / PREDICTIONS["long_term"], settings)
 
 
-def score_short_term(root: Path, params_file: Path, datasets: list[str] = DATASETS) -> dict:
+def score_short_term(root: Path, params_file: Path,
+                     datasets: list[str] = SHORT_TERM_DATASETS) -> dict:
     """What stage score_short_term_predictions computes (maps, masks and scales read anew)."""
     params = read_params(params_file)
     settings = load_section(ScorePredictionsParams, "score_predictions", params)

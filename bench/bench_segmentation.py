@@ -28,7 +28,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench import common  # noqa: E402
 from pipeline.device import cpu_has_bf16  # noqa: E402
 from pipeline.data.labels import read_index  # noqa: E402
-from pipeline.config import SegmentationParams, load_profile, read_params  # noqa: E402
+from pipeline.config.loading import load_profile, read_params  # noqa: E402
+from pipeline.config.segmentation import SegmentationParams  # noqa: E402
 from pipeline.runners.segmentation import (epoch_batches, load_training_scenes,  # noqa: E402
                                            train_step, unet_config)
 from ynet.segmentation import UNet  # noqa: E402

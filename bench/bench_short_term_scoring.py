@@ -34,8 +34,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from bench import common, short_term_validation  # noqa: E402
 from bench.bench_training_precision import SMOKE_IMAGE_HW, synthetic_windows  # noqa: E402
 from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.config import (EvalParams, ShortTermModelsParams, ShortTermParams,  # noqa: E402
-                             load_profile, load_section, read_params)
+from pipeline.config.eval import EvalParams  # noqa: E402
+from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
+from pipeline.config.short_term import ShortTermParams  # noqa: E402
+from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
 from pipeline.data.ynet_data import group_by_scene  # noqa: E402
 from pipeline.runners.short_term import ynet_options  # noqa: E402
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402

@@ -38,7 +38,9 @@ from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from pipeline.benchmarks.ethucy import FOLDS  # noqa: E402
 from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD  # noqa: E402
 from pipeline.device import cpu_has_bf16  # noqa: E402
-from pipeline.config import ShortTermModelsParams, YnetSettings, load_profile, read_params  # noqa: E402
+from pipeline.config.loading import load_profile, read_params  # noqa: E402
+from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
+from pipeline.config.ynet import YnetSettings  # noqa: E402
 from pipeline.data.window_table import WindowArrays  # noqa: E402
 from pipeline.data.ynet_data import group_by_scene  # noqa: E402
 from pipeline.runners.ynet_training import epoch_plan, train_epoch  # noqa: E402

@@ -35,7 +35,8 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import common  # noqa: E402
-from pipeline.config import YnetSettings, load_profile, read_params  # noqa: E402
+from pipeline.config.loading import load_profile, read_params  # noqa: E402
+from pipeline.config.ynet import YnetSettings  # noqa: E402
 from ynet.config import upstream_max_distance  # noqa: E402
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, padded_size, scene_and_past  # noqa: E402
 from ynet.loss import ynet_loss  # noqa: E402

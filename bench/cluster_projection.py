@@ -33,8 +33,10 @@ from bench import common  # noqa: E402
 from bench.projection import (YNET_ETHUCY, YNET_SDD, Count, StagePlan, count_keys,  # noqa: E402
                               paper, paper_stages, short_term_datasets, stage_hours, window_counts)
 from pipeline.benchmarks.ethucy import FOLDS  # noqa: E402
-from pipeline.config import (ShortTermModelsParams, ShortTermParams, YnetSettings,  # noqa: E402
-                             load_section, read_params)
+from pipeline.config.loading import load_section, read_params  # noqa: E402
+from pipeline.config.short_term import ShortTermParams  # noqa: E402
+from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
+from pipeline.config.ynet import YnetSettings  # noqa: E402
 from ynet.heatmaps import padded_size  # noqa: E402
 
 GPUS = (1, 4, 8)

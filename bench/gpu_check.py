@@ -46,7 +46,7 @@ from bench.bench_profiles import (IMAGE_HW, ScoringBench, TrainingBench, gib,  #
                                   main_options, profile_settings, warmup_rows)
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
 from bench.stage_rates import smoke_params, stage_rates  # noqa: E402
-from pipeline.config import read_params  # noqa: E402
+from pipeline.config.loading import read_params  # noqa: E402
 from pipeline.device import SCORING, TRAINING, describe, select_device, synchronize  # noqa: E402
 
 SMOKE_IMAGE_HW = (512, 416)  # a quarter of the SDD-sized scene per side: 128 x 104 at resize 0.25

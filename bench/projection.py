@@ -28,9 +28,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.bench_baselines import N_FUTURE, N_PAST  # noqa: E402
 from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.config import (BaselineSeedsParams, HorizonParams, SegmentationParams,  # noqa: E402
-                             ShortTermModelsParams, ShortTermParams, WindowParams, YnetSeedsParams,
-                             YnetSettings, load_profile, load_section, read_params)
+from pipeline.config.baseline_seeds import BaselineSeedsParams  # noqa: E402
+from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
+from pipeline.config.segmentation import SegmentationParams  # noqa: E402
+from pipeline.config.short_term import ShortTermParams  # noqa: E402
+from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
+from pipeline.config.windows import WindowParams  # noqa: E402
+from pipeline.config.ynet import YnetSettings  # noqa: E402
+from pipeline.config.ynet_horizons import HorizonParams  # noqa: E402
+from pipeline.config.ynet_seeds import YnetSeedsParams  # noqa: E402
 from pipeline.harness import baselines  # noqa: E402
 
 RELEASE_TABLE = "windows/release_tf30.parquet"

@@ -17,8 +17,10 @@ from bench.common import repro, require
 from pipeline.benchmarks.ethucy import EthUcyFold, load_ethucy_scenes
 from pipeline.benchmarks.registry import short_term
 from pipeline.runners.ynet_scoring import load_model
-from pipeline.config import (ShortTermModelsParams, ShortTermParams, YnetSettings, load_profile,
-                             load_section, read_params)
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.runners.short_term import sample_windows
 from pipeline.data.window_table import WindowArrays

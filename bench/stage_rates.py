@@ -25,7 +25,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.bench_baselines import N_FUTURE, N_PAST, synthetic_windows  # noqa: E402
 from bench.projection import PECNET, SEGMENTATION, SGAN, paper  # noqa: E402
-from pipeline.config import SegmentationParams, TrainBaselineParams, load_section  # noqa: E402
+from pipeline.config.loading import load_section  # noqa: E402
+from pipeline.config.segmentation import SegmentationParams  # noqa: E402
+from pipeline.config.train_baseline import TrainBaselineParams  # noqa: E402
 from pipeline.device import synchronize  # noqa: E402
 from pipeline.harness import baselines  # noqa: E402
 from pipeline.runners import segmentation  # noqa: E402

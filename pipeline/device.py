@@ -31,7 +31,7 @@ import sys
 
 import torch
 
-from pipeline.config import parse_device_name
+from pipeline.config.runtime import parse_device_name
 
 CPU = torch.device("cpu")
 

@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pipeline.config import scalar_type_error
+from pipeline.config.loading import scalar_type_error
 
 
 def pid_alive(pid: int) -> bool:

@@ -61,6 +61,11 @@ def ours_first(names: Iterable[Named], key=lambda item: item) -> list[Named]:
                                                              if key(item) != OURS]
 
 
+# The short-term models, Y-net first: the order of the short-term tables (Tables 1 and 2) and the
+# keys of params.yaml `short_term_models.<profile>.epochs`.
+SHORT_TERM_MODELS_OURS_FIRST = tuple(ours_first(SHORT_TERM_MODELS))
+
+
 def label(name: str) -> str:
     """The report's name for paper model `name` (the name itself for any other)."""
     return BY_NAME[name].label if name in BY_NAME else name

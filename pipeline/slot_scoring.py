@@ -21,8 +21,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pipeline.config import (CwsParams, EvalParams, HorizonParams, ParamsError, TtstParams,
-                             YnetSeedsParams, from_dict, load_profile, load_section, ynet_seed_slots)
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import ParamsError, from_dict, load_profile, load_section
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet_horizons import HorizonParams
+from pipeline.config.ynet_seeds import YnetSeedsParams, ynet_seed_slots
 from pipeline.io import IntermediateError, index_value, read_json_index
 
 EVAL_KEYS = ("k_e", "k_a", "rounds", "seed", "batch_size", "chunk_size", "bf16", "threads")

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.config import AugmentParams
+from pipeline.config.segmentation import AugmentParams
 from pipeline.data.augment import NO_AUGMENT, crop_centre, photometric, random_crop, sample_warp, warp_pair
 
 PAD = 0

@@ -30,12 +30,23 @@ from pipeline.benchmarks.ethucy import (
 from pipeline.benchmarks.ind import IndError
 from pipeline.benchmarks.short_term import ShortTermInputError, read_rows
 from pipeline.benchmarks.trajnet_sdd import fixed_windows, read_sdd_ratios, sdd_trajnet_windows
-from pipeline.config import (
-    AugmentParams, CompatParams, CwsParams, EvalParams, EvaluateBaselineParams, FetchParams, HorizonParams,
-    IndBenchmarkParams, IndParams, LabelsParams, ParamsError, SegmentationParams, SemanticParams,
-    ShortTermModelsParams, ShortTermParams, TrainBaselineParams, TtstParams, WindowParams, YnetScale, from_dict,
-    load_profile, load_section, read_params,
-)
+from pipeline.config.compat import CompatParams
+from pipeline.config.cws import CwsParams
+from pipeline.config.data import IndParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.fetch import FetchParams
+from pipeline.config.ind_benchmark import IndBenchmarkParams
+from pipeline.config.labels import LabelsParams
+from pipeline.config.loading import ParamsError, from_dict, load_profile, load_section, read_params
+from pipeline.config.segmentation import AugmentParams, SegmentationParams
+from pipeline.config.semantic import SemanticParams
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams, YnetScale
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.windows import WindowParams
+from pipeline.config.ynet_horizons import HorizonParams
 from pipeline.data.checksums import ChecksumError, read_manifest
 from pipeline.data.homography import HomographyError, read_homography
 from pipeline.data.labels import MaskError, find_masks, read_index, read_label_map

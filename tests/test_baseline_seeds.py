@@ -12,7 +12,8 @@ import pytest
 import torch
 import yaml
 
-from pipeline.config import BaselineSeedsParams, ParamsError, from_dict
+from pipeline.config.baseline_seeds import BaselineSeedsParams
+from pipeline.config.loading import ParamsError, from_dict
 from pipeline.harness import seed_spread
 from pipeline.harness.baselines import common
 from pipeline.io import IntermediateError

@@ -24,8 +24,11 @@ from pipeline.harness.baselines.sgan import SocialGan
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
-from pipeline.config import (PARAMS_FILE, EvaluateBaselineParams, ParamsError, PecnetConfig,
-                             SganConfig, TrainBaselineParams, from_dict, load_section, read_params)
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import PARAMS_FILE, ParamsError, from_dict, load_section, read_params
+from pipeline.config.pecnet import PecnetConfig
+from pipeline.config.sgan import SganConfig
+from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.data.window_table import WindowArrays, conform, to_arrays
 from pipeline.model_list import BASELINES
 from pipeline.models import window_set

@@ -8,7 +8,7 @@ import torch
 
 from bench.bench_profiles import (scoring_flops, step_shape, training_flops, warmup_plan,
                                   warmup_rows)
-from pipeline.config import YnetSettings
+from pipeline.config.ynet import YnetSettings
 from ynet.model import YNetConfig
 
 

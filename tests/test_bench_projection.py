@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 
 from bench import projection
-from pipeline.config import YnetSettings, read_params
+from pipeline.config.loading import read_params
+from pipeline.config.ynet import YnetSettings
 
 
 def test_tflops_per_s_is_flops_over_seconds_in_units_of_1e12():

@@ -14,8 +14,10 @@ from pipeline.benchmarks.ind import IND
 from pipeline.benchmarks.registry import BENCHMARKS, SHORT_TERM, get, short_term
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD, TrajnetSdd
-from pipeline.config import (DATASETS, ShortTermModelsParams, YnetSettings, load_profile,
-                             read_params)
+from pipeline.config.loading import load_profile, read_params
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.splits import FOLD_TEST_SCENES
 
 REPO = Path(__file__).resolve().parents[1]
@@ -52,8 +54,8 @@ def test_the_registry_lists_every_benchmark_once_under_its_name():
 
 
 def test_every_dataset_has_its_short_term_benchmark_in_order():
-    assert list(SHORT_TERM) == list(DATASETS) == ["sdd", *FOLD_TEST_SCENES]
-    for dataset in DATASETS:
+    assert list(SHORT_TERM) == list(SHORT_TERM_DATASETS) == ["sdd", *FOLD_TEST_SCENES]
+    for dataset in SHORT_TERM_DATASETS:
         benchmark = short_term(dataset)
         assert benchmark.dataset == dataset and BENCHMARKS[benchmark.name] is benchmark
     assert isinstance(short_term("sdd"), TrajnetSdd) and short_term("sdd").settings_key == "sdd"
@@ -97,7 +99,7 @@ def test_an_unknown_dataset_names_the_known_ones():
 def test_ynet_settings_take_the_benchmarks_scale_and_epochs(params, short):
     base = load_profile(YnetSettings, "ynet", params)
     assert short.ynet_sdd.resize != short.ynet_ethucy.resize  # else the check below cannot fail
-    for dataset in DATASETS:
+    for dataset in SHORT_TERM_DATASETS:
         benchmark = short_term(dataset)
         scale = short.ynet_sdd if dataset == "sdd" else short.ynet_ethucy
         settings = benchmark.ynet_settings(base, short, N_FUTURE, 3)

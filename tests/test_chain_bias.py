@@ -1,7 +1,7 @@
 import pandas as pd
 import pytest
 
-from pipeline.config import WindowParams
+from pipeline.config.windows import WindowParams
 from pipeline.harness.chain_bias import chain_bias
 
 STRIDE = 30

@@ -12,7 +12,7 @@ import pytest
 
 from bench import cluster_projection as cp
 from bench.projection import YNET_ETHUCY, YNET_SDD, Count, Run, StagePlan, count_keys, paper_stages
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 
 ROOT = Path(__file__).resolve().parents[1]
 Task = cp.Task

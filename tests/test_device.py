@@ -9,7 +9,8 @@ import torch
 import pipeline.device
 from pipeline.device import (SCORING, TRAINING, autocast, conv_layout, cpu_has_bf16, generator,
                              resolve_device, select_device, to_device, use_bf16)
-from pipeline.config import ParamsError, RuntimeParams, load_section, parse_device_name
+from pipeline.config.loading import ParamsError, load_section
+from pipeline.config.runtime import RuntimeParams, parse_device_name
 
 
 @pytest.mark.parametrize("name, parsed", [("auto", ("auto", None)), ("cpu", ("cpu", None)),

@@ -13,7 +13,7 @@ import pytest
 import torch
 import yaml
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.harness import baseline_runs, epoch_selection
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.pecnet import Pecnet

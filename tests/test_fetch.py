@@ -6,8 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.config import (FETCH_SOURCES, FetchParams, ParamsError, UpstreamLocation, from_dict,
-                             load_section, parse_upstream_source, read_params)
+from pipeline.config.fetch import (FETCH_SOURCES, FetchParams, UpstreamLocation,
+                                   parse_upstream_source)
+from pipeline.config.loading import ParamsError, from_dict, load_section, read_params
 from pipeline.data.checksums import read_manifest
 from pipeline.data.fetch import FetchError, fetch_source, file_address
 from tests.fixtures import write_manifest

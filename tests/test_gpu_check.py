@@ -18,7 +18,9 @@ from torch.profiler import ProfilerActivity
 from bench.bench_profiles import ScoringBench, TrainingBench
 from bench.gpu_check import (count_sync_warnings, output_paths, profile_training, sync_counts,
                               top_events)
-from pipeline.config import EvalParams, YnetSettings, load_profile, read_params
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, read_params
+from pipeline.config.ynet import YnetSettings
 from pipeline.device import CPU
 from ynet.sampling import SamplingOptions
 

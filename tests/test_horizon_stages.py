@@ -13,7 +13,8 @@ import pytest
 import torch
 import yaml
 
-from pipeline.config import YnetSettings, from_dict
+from pipeline.config.loading import from_dict
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.window_table import to_arrays
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions

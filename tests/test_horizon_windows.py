@@ -2,7 +2,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.config import WindowParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.horizon_windows import ChainError, chain_pieces, horizon_table
 from pipeline.data.window_table import conform
 from pipeline.data.windows import count_windows

@@ -33,11 +33,19 @@ from pipeline.stages import ind_windows
 from pipeline.benchmarks.ind import IndError
 from pipeline.runners.ind import BenchmarkSettings
 from pipeline.data.labels import MaskError
-from pipeline.config import (CwsParams, DataParams, EvalParams, EvaluateBaselineParams,
-                             IndBenchmarkParams, IndParams, ParamsError, PecnetConfig,
-                             SegmentationParams, SganConfig, TrainBaselineParams, TtstParams,
-                             WindowParams, YnetSettings, from_dict, load_profile, load_section,
-                             read_params)
+from pipeline.config.cws import CwsParams
+from pipeline.config.data import DataParams, IndParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.ind_benchmark import IndBenchmarkParams
+from pipeline.config.loading import ParamsError, from_dict, load_profile, load_section, read_params
+from pipeline.config.pecnet import PecnetConfig
+from pipeline.config.segmentation import SegmentationParams
+from pipeline.config.sgan import SganConfig
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.windows import WindowParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.runners.segmentation import export_model
 from pipeline.data.window_table import COLUMNS, to_arrays
 from pipeline.harness.predictions import prediction_arrays, read_predictions

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from pipeline.data.labels import CLASS_COLOURS_BGR, LABEL_VALUES, TEST_VIDEOS, TRAIN_VIDEOS, MaskError, find_masks, import_labels, legend, pair_videos, read_index, read_label_map, split_of, validate_mask
-from pipeline.config import LabelsParams, ParamsError, load_section, read_params
+from pipeline.config.labels import LabelsParams
+from pipeline.config.loading import ParamsError, load_section, read_params
 from ynet.segmentation import CLASS_NAMES, N_OUTPUTS, N_SCENE_CLASSES, PAD_CLASS
 
 H, W = 12, 16

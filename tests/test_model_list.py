@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 import yaml
 
-from pipeline.config import MODELS as SHORT_TERM_EPOCH_KEYS
-from pipeline.config import DATASETS, read_params
+from pipeline.config.loading import read_params
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.model_list import (BASELINES, BY_NAME, OURS, PAPER_MODEL_NAMES, PAPER_MODELS,
-                                 SEEDED_BASELINES, SHORT_TERM_MODELS, TRAINED_BASELINES, label,
-                                 ours_first)
+                                 SEEDED_BASELINES, SHORT_TERM_MODELS, SHORT_TERM_MODELS_OURS_FIRST,
+                                 TRAINED_BASELINES, label, ours_first)
 from pipeline.models import RESERVED_MODEL_NAMES, all_models, load_models
 from pipeline.report.common import horizon_models, model_colours, table_models
 
@@ -48,7 +48,8 @@ def test_the_registered_model_matrices_are_params_models(stages, name):
 @pytest.mark.parametrize("name", ["train_short_term_baseline", "evaluate_short_term_baseline"])
 def test_every_short_term_baseline_runs_on_every_benchmark(stages, name):
     runs = stages[name]["foreach"]
-    expected = {f"{dataset}-{model}" for dataset in DATASETS for model in TRAINED_BASELINES}
+    expected = {f"{dataset}-{model}" for dataset in SHORT_TERM_DATASETS
+                for model in TRAINED_BASELINES}
     assert set(runs) == expected
     assert all(f"{run['dataset']}-{run['model']}" == key for key, run in runs.items())
 
@@ -72,8 +73,11 @@ def test_the_derived_lists_agree():
     assert RESERVED_MODEL_NAMES == PAPER_MODEL_NAMES
     assert set(TRAINED_BASELINES) <= set(SEEDED_BASELINES) <= set(BASELINES)
     assert OURS not in BASELINES and BY_NAME["rpecnet"].trained_as in TRAINED_BASELINES
-    assert SHORT_TERM_EPOCH_KEYS == ("ynet", "sgan", "pecnet")  # Y-net first, then the paper's order
-    assert set(SHORT_TERM_MODELS) == set(SHORT_TERM_EPOCH_KEYS)
+    assert SHORT_TERM_MODELS_OURS_FIRST == ("ynet", "sgan", "pecnet")  # Y-net first
+    assert set(SHORT_TERM_MODELS) == set(SHORT_TERM_MODELS_OURS_FIRST)
+    short_term_models = read_params(ROOT / "params.yaml")["short_term_models"]
+    for profile in ("cpu", "paper"):  # the keys of short_term_models.<profile>.epochs
+        assert set(short_term_models[profile]["epochs"]) == set(SHORT_TERM_MODELS)
     assert [label(m.name) for m in PAPER_MODELS] == ["S-GAN", "PECNet", "R-PECNet", "Y-net"]
     assert label("constant_velocity") == "constant_velocity"  # not the paper's: its own name
 

@@ -21,7 +21,7 @@ import pytest
 import yaml
 
 from pipeline.benchmarks.ind import IND
-from pipeline.config import ParamsError, read_params
+from pipeline.config.loading import ParamsError, read_params
 from pipeline.data.window_table import conform, load_windows
 from pipeline.harness.model_runs import FIT_FACTS, fit_to_workdir, predict_to_files
 from pipeline.harness.predictions import prediction_arrays, read_predictions, write_no_predictions

@@ -14,7 +14,10 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.runners.ynet_scoring import predict_scenes, qualitative, sampling_options
 from pipeline.runners.ynet_training import epoch_plan, train_epoch, validate
 from pipeline.data.window_table import WindowArrays

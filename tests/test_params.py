@@ -7,13 +7,29 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.config import (BaselineSeedsParams, CompatParams, CwsParams, DataParams, EvalParams,
-                             FetchParams, HorizonParams, LabelsParams, ParamsError,
-                             PecnetTestSelectionParams, ReportParams, RpecnetRolloutsParams,
-                             ScorePredictionsParams, SegmentationParams, SemanticParams,
-                             SplitParams, TtstParams, WindowParams, YnetSettings, from_dict,
-                             load_section, read_params)
-from pipeline.config import PecnetConfig, SganConfig, YnetSeedsParams, load_profile
+from pipeline.config.baseline_seeds import BaselineSeedsParams
+from pipeline.config.compat import CompatParams
+from pipeline.config.cws import CwsParams
+from pipeline.config.data import DataParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.fetch import FetchParams
+from pipeline.config.labels import LabelsParams
+from pipeline.config.loading import (ParamsError, from_dict, load_profile, load_section,
+                                     read_params)
+from pipeline.config.pecnet import PecnetConfig
+from pipeline.config.pecnet_test_selection import PecnetTestSelectionParams
+from pipeline.config.report import ReportParams
+from pipeline.config.rpecnet_rollouts import RpecnetRolloutsParams
+from pipeline.config.score_predictions import ScorePredictionsParams
+from pipeline.config.segmentation import SegmentationParams
+from pipeline.config.semantic import SemanticParams
+from pipeline.config.sgan import SganConfig
+from pipeline.config.split import SplitParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.windows import WindowParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.config.ynet_horizons import HorizonParams
+from pipeline.config.ynet_seeds import YnetSeedsParams
 
 SECTIONS = {"fetch": FetchParams, "compat": CompatParams, "split": SplitParams,
             "windows": WindowParams, "report": ReportParams, "labels": LabelsParams,

@@ -6,8 +6,9 @@ float param as numbers: DVC (ruamel, YAML 1.2) reads them so, PyYAML (YAML 1.1) 
 import pytest
 import yaml
 
-from pipeline.config import (ParamsError, SganConfig, TtstParams, from_dict, load_section,
-                             yaml12_floats)
+from pipeline.config.loading import ParamsError, from_dict, load_section, yaml12_floats
+from pipeline.config.sgan import SganConfig
+from pipeline.config.ttst import TtstParams
 
 
 def test_pyyaml_reads_these_as_strings_and_dvc_as_numbers():

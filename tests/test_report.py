@@ -33,7 +33,8 @@ from pipeline.report.tables import (Column, build_tables, compare, find_long_ter
 from pipeline.stages import animations as animations_stage
 from pipeline.stages import report as report_stage
 from pipeline.stages import report_figures as report_figures_stage
-from pipeline.config import ParamsError, ReportParams, from_dict
+from pipeline.config.loading import ParamsError, from_dict
+from pipeline.config.report import ReportParams
 
 REPO = Path(__file__).resolve().parents[1]
 PAPER = REPO / "pipeline" / "report" / "paper_values.yaml"

@@ -5,7 +5,10 @@ round differently, which is why the report's spreads are over evaluation rounds 
 import numpy as np
 import torch
 
-from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import generator
 from pipeline.harness.baselines import Baseline

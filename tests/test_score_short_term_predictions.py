@@ -34,7 +34,7 @@ from pipeline.benchmarks.ethucy import SCENES, road_masks, write_ethucy_maps
 from pipeline.benchmarks.ind import IND
 from pipeline.benchmarks.registry import short_term
 from pipeline.benchmarks.short_term import number_windows
-from pipeline.config import DATASETS
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.harness import stored_scores
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.harness.stored_scores import forbidden_shares
@@ -152,7 +152,7 @@ def project(tmp_path: Path) -> tuple[Path, dict]:
         runs.setdefault(dataset, {})[model] = runner.score(sample, bench, 2, 0, kept)
         kept.write(predictions / dataset / f"{model}.parquet",
                    short_term(dataset).prediction_metadata(windows, model, [3]))
-    for dataset in DATASETS:
+    for dataset in SHORT_TERM_DATASETS:
         for model in ("ynet", "sgan", "pecnet"):
             path = predictions / dataset / f"{model}.parquet"
             if not path.exists():
@@ -266,7 +266,7 @@ def test_sgan_sequence_metrics_take_one_sample_per_sequence(project):
 def test_models_not_run_are_listed_with_their_reason(project):
     root, _ = project
     record = run(root)["benchmarks"]
-    assert list(record) == list(DATASETS)
+    assert list(record) == list(SHORT_TERM_DATASETS)
     assert record["zara1"]["models"]["ynet"]["not_run_reason"] == "ynet is not run on zara1 here"
     eth = record["eth"]
     assert all("not_run_reason" in entry for entry in eth["models"].values())
@@ -313,7 +313,7 @@ def test_a_file_that_does_not_fit_its_benchmark_is_named(project, case):
 
 
 def test_names_and_tables_agree_with_the_writers(tmp_path):
-    for dataset in DATASETS:
+    for dataset in SHORT_TERM_DATASETS:
         benchmark = short_term(dataset)
         stem = "sdd_trajnet" if dataset == "sdd" else f"ethucy_{dataset}"
         table = benchmark.table(tmp_path)

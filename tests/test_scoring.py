@@ -14,7 +14,7 @@ from scipy.stats import gaussian_kde
 from pipeline.benchmarks.base import class_values
 from pipeline.benchmarks.ethucy import sgan_window_rows
 from pipeline.benchmarks.short_term import read_rows
-from pipeline.config import ShortTermParams
+from pipeline.config.short_term import ShortTermParams
 from pipeline.harness import scoring
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.scoring import (ALLOWED, FORBIDDEN, OUTSIDE, ade_sgan_sequence, aggregate,

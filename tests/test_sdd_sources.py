@@ -23,7 +23,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.config import DataParams, ParamsError, SddParams, WindowParams, from_dict
+from pipeline.config.data import DataParams, SddParams
+from pipeline.config.loading import ParamsError, from_dict
+from pipeline.config.windows import WindowParams
 from pipeline.data.checksums import read_manifest
 from pipeline.data.horizon_windows import chain_pieces, horizon_table
 from pipeline.data.sdd_sources import (ORIGIN_COPY, ORIGIN_FETCHED, ORIGIN_IDENTICAL, choose_videos,

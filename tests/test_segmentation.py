@@ -14,7 +14,10 @@ import pytest
 import torch
 
 from pipeline.data.labels import import_labels
-from pipeline.config import LabelsParams, ParamsError, SegmentationParams, SemanticParams, load_profile, load_section, read_params
+from pipeline.config.labels import LabelsParams
+from pipeline.config.loading import ParamsError, load_profile, load_section, read_params
+from pipeline.config.segmentation import SegmentationParams
+from pipeline.config.semantic import SemanticParams
 from pipeline import checkpoints
 from pipeline.runners.segmentation import downsample_pair, export_model, fingerprint, learning_rate, load_model, pad_to_multiple, scaled_size, train
 from pipeline.data.semantic_maps import dequantise, iou_summary, load_semantic_maps, one_hot_map, predicted_labels, quantise

@@ -16,7 +16,7 @@ import yaml
 import pipeline.runners.segmentation as segmentation
 from pipeline.stages import segmentation as segmentation_stage
 from pipeline.stages import semantic_maps as semantic_maps_stage
-from pipeline.config import LabelsParams
+from pipeline.config.labels import LabelsParams
 from pipeline.data.labels import import_labels
 from pipeline.io import save_torch
 from pipeline.preemption import EXIT_BUDGET, Preemption, StopRequested

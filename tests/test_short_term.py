@@ -23,7 +23,8 @@ from pipeline.benchmarks.short_term_windows import build
 from pipeline.benchmarks.trajnet_sdd import fixed_windows, read_sdd_ratios
 from pipeline.data.checksums import load_verified_pickle, read_manifest
 from pipeline.data.homography import HomographyError, metres_to_pixels, pixels_to_metres, read_homography
-from pipeline.config import ShortTermParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.short_term import ShortTermParams
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import COLUMNS, to_arrays
 from pipeline.splits import FOLD_TEST_SCENES

@@ -17,7 +17,9 @@ import pytest
 import torch
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config import PecnetConfig, SganConfig, read_params
+from pipeline.config.loading import read_params
+from pipeline.config.pecnet import PecnetConfig
+from pipeline.config.sgan import SganConfig
 from pipeline.data.window_table import select_split, to_arrays
 from pipeline.runners.short_term_baselines import baseline_config, overrides
 from tests.test_short_term_models import N_FUTURE, N_PAST, project  # noqa: F401 (fixture)
@@ -173,7 +175,8 @@ def test_test_selection_on_a_fold_the_switch_leaves_off_records_why(project):  #
 @pytest.mark.parametrize("folds, message", [(["eth", "sdd"], "not ETH/UCY folds"),
                                             (["eth", "eth"], "folds repeat")])
 def test_the_switch_takes_only_ethucy_folds_once(folds, message):
-    from pipeline.config import ShortTermPecnetTestSelectionParams, from_dict
+    from pipeline.config.loading import from_dict
+    from pipeline.config.short_term_pecnet_test_selection import ShortTermPecnetTestSelectionParams
 
     with pytest.raises(ValueError, match=message):
         from_dict(ShortTermPecnetTestSelectionParams, {"folds": folds}, "params.yaml:x")

@@ -33,9 +33,15 @@ from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
 from pipeline.io import IntermediateError
-from pipeline.config import (DATASETS, CwsParams, EvalParams, ReportParams, ShortTermModelsParams,
-                             TtstParams, YnetSettings, YnetTraining, YnetTrainingByBenchmark,
-                             load_profile, read_params)
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, read_params
+from pipeline.config.report import ReportParams
+from pipeline.config.short_term_models import (ShortTermModelsParams, YnetTraining,
+                                               YnetTrainingByBenchmark)
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.data.semantic_maps import quantise
 from pipeline.data.window_table import to_arrays
 from pipeline.data.ynet_data import window_inputs
@@ -579,7 +585,7 @@ def test_merged_files_have_the_report_layout(project):
     hotel = json.loads((out / "ethucy_hotel.json").read_text())
     assert "not_run_reason" in hotel["models"]["ynet"]
     assert {p.name for p in out.glob("*.json")} == {
-        "sdd.json", *(f"ethucy_{d}.json" for d in DATASETS if d != "sdd")}
+        "sdd.json", *(f"ethucy_{d}.json" for d in SHORT_TERM_DATASETS if d != "sdd")}
 
 
 def test_the_report_shows_the_merged_numbers_as_measured(project):
@@ -602,7 +608,8 @@ def test_params_yaml_section_validates_for_both_profiles():
     params = read_params(REPO / "params.yaml")
     cpu = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "cpu"})
     paper = load_profile(ShortTermModelsParams, "short_term_models", {**params, "profile": "paper"})
-    assert paper.ynet_datasets == list(DATASETS) and paper.rounds >= 3
+    assert paper.ynet_datasets == list(SHORT_TERM_DATASETS) and paper.rounds >= 3
     assert paper.ynet_sdd.resize == 0.25 and abs(paper.ynet_ethucy.resize - 1 / 1.5) < 1e-6
     assert paper.epochs["ynet"] == {"sdd": 300, "ethucy": 300}
-    assert set(cpu.ynet_datasets) <= set(DATASETS) and cpu.temperature == paper.temperature == 1.0
+    assert set(cpu.ynet_datasets) <= set(SHORT_TERM_DATASETS)
+    assert cpu.temperature == paper.temperature == 1.0

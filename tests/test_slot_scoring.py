@@ -12,7 +12,9 @@ import pytest
 import yaml
 from dvc.repo import Repo
 
-from pipeline.config import EvalParams, HorizonParams, load_profile
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile
+from pipeline.config.ynet_horizons import HorizonParams
 from pipeline.io import IntermediateError
 from pipeline.slot_scoring import (EVAL_KEYS, check_agrees, horizon_slot, read_slot_scoring, seed_slot,
                                    slot_payloads)

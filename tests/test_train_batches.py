@@ -14,7 +14,7 @@ from pipeline.preemption import NEVER, Preemption, StopRequested
 from pipeline.runners import ynet_training
 from pipeline.runners.ynet_training import (epoch_plan, optimizer_groups, scheduled_learning_rate,
                                             train, train_epoch)
-from pipeline.config import YnetSettings
+from pipeline.config.ynet import YnetSettings
 from ynet.model import YNet
 
 N_PAST, N_FUTURE = 3, 4

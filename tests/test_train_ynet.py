@@ -9,7 +9,10 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.runners import ynet_training as train_ynet
 
 from pipeline.harness.metrics import window_errors

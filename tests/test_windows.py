@@ -2,7 +2,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.config import WindowParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.tracks import build_tracks
 from pipeline.data.window_table import to_arrays
 from pipeline.data.windows import ReleaseError, count_windows, cut_pieces, cut_windows, raw_windows, validate_release

@@ -6,7 +6,7 @@ from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import (SceneWindows, agent_crops, augment, cropped_training_batch,
                                      group_by_scene, model_input, padded_semantic, training_batch,
                                      window_inputs)
-from pipeline.config import AUGMENTATIONS
+from pipeline.config.ynet import AUGMENTATIONS
 
 
 def scene_with_marker(x: int, y: int, height: int = 5, width: int = 7) -> SceneWindows:

@@ -2,7 +2,8 @@
 
 import pytest
 
-from pipeline.config import HorizonParams, ParamsError, load_profile, read_params
+from pipeline.config.loading import ParamsError, load_profile, read_params
+from pipeline.config.ynet_horizons import HorizonParams
 from pipeline.runners.ynet_horizon import not_run_record
 
 HORIZONS = [5, 10, 15, 20, 40, 50, 60]  # dvc.yaml's ynet_horizon foreach (30 is the main Y-net)

@@ -13,7 +13,10 @@ import numpy as np
 import pytest
 import torch
 
-from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.runners import ynet_scoring
 from pipeline.runners.ynet_scoring import (CUDA_KMEANS_CHECK_EVERY, Sampling, kmeans_check_every,
                                            predict_samplings, sampling_options)

@@ -16,7 +16,8 @@ import pytest
 import torch
 import yaml
 
-from pipeline.config import ParamsError, YnetSeedsParams, from_dict, load_profile, ynet_seed_slots
+from pipeline.config.loading import ParamsError, from_dict, load_profile
+from pipeline.config.ynet_seeds import YnetSeedsParams, ynet_seed_slots
 from pipeline.harness import seed_spread
 from pipeline.io import IntermediateError
 from pipeline.runners import ynet_training

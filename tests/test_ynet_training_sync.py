@@ -18,7 +18,7 @@ from pipeline.preemption import NEVER, Preemption, StopRequested
 from pipeline.runners import ynet_training
 from pipeline.runners.ynet_training import (concat_batches, epoch_plan, optimizer_groups,
                                             scheduled_learning_rate, train, train_epoch)
-from pipeline.config import YnetSettings
+from pipeline.config.ynet import YnetSettings
 from tests.sync_audit import SyncAudit, host_state
 from tests.test_train_batches import MAPS, N_FUTURE, N_PAST, SETTINGS, SIZES, arrays, scenes
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, pad_to_multiple

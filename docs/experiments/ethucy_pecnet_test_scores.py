@@ -25,8 +25,10 @@ import numpy as np
 import torch
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config import (ShortTermModelsParams, ShortTermParams, TrainBaselineParams,
-                             load_profile, load_section, read_params)
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.harness.baselines.common import BEST, load_checkpoint
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import PredictionRounds, read_prediction_rounds

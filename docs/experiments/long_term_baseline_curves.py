@@ -42,8 +42,10 @@ import numpy as np
 import torch
 
 from pipeline import checkpoints
-from pipeline.config import (RuntimeParams, TrainBaselineParams, WindowParams, load_section,
-                             read_params)
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import load_windows, select_split
 from pipeline.device import generator as seeded_generator
 from pipeline.device import TRAINING, select_device

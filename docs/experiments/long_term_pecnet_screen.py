@@ -32,7 +32,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline.config import TrainBaselineParams, WindowParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import load_windows, select_split
 from pipeline.device import CPU
 from pipeline.device import generator as seeded_generator

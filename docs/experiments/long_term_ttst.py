@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: 
 
 import long_term_validation  # noqa: E402  (beside this script)
 from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.config import TtstParams  # noqa: E402
+from pipeline.config.ttst import TtstParams  # noqa: E402
 from pipeline.harness.metrics import window_errors  # noqa: E402
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options  # noqa: E402
 from short_term_ttst import ttst_grid  # noqa: E402  (beside this script)

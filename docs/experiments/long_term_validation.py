@@ -15,8 +15,12 @@ from pathlib import Path
 import pandas as pd
 
 from bench.common import repro, require
-from pipeline.config import (CwsParams, EvalParams, TtstParams, WindowParams, YnetSettings,
-                             load_profile, load_section, read_params)
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.ttst import TtstParams
+from pipeline.config.windows import WindowParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays, to_arrays
 from pipeline.data.ynet_data import SceneWindows, image_sizes

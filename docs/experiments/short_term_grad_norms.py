@@ -30,8 +30,10 @@ from rerun_plan import parse_override  # noqa: E402  (tools/: `-S key=value` as 
 
 from pipeline.benchmarks.ethucy import EthUcyFold  # noqa: E402
 from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.config import (ShortTermModelsParams, ShortTermParams, YnetSettings,  # noqa: E402
-                             load_profile, load_section, read_params)
+from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
+from pipeline.config.short_term import ShortTermParams  # noqa: E402
+from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
+from pipeline.config.ynet import YnetSettings  # noqa: E402
 from pipeline.runners.short_term import train_ynet, ynet_maps  # noqa: E402
 
 

@@ -45,10 +45,11 @@ import pandas as pd
 from pipeline.benchmarks.base import SceneMasks, ScoredTable
 from pipeline.benchmarks.short_term import (METRE_COLUMNS, ShortTermBenchmark, ShortTermInputError,
                                             ShortTermSplits, number_windows, read_rows, splits_of)
-from pipeline.config import ShortTermParams
+from pipeline.config.short_term import ShortTermParams
 from pipeline.data.homography import metres_to_pixels, pixels_to_metres, read_homography
 from pipeline.data.semantic_maps import QUANT, load_semantic_maps, quantise
 from pipeline.data.window_table import select_split, to_arrays
+from pipeline.dataset_list import ETHUCY
 from pipeline.io import IntermediateError, index_value, positive_ints, read_json_index
 from pipeline.splits import FOLD_TEST_SCENES
 
@@ -131,7 +132,7 @@ class EthUcyFold(ShortTermBenchmark):
 
 
 FOLDS = {fold: EthUcyFold(f"ethucy_{fold}", f"ETH/UCY, {fold} fold", "m", METRE_COLUMNS,
-                          dataset=fold, table_file=f"ethucy_{fold}.parquet", settings_key="ethucy",
+                          dataset=fold, table_file=f"ethucy_{fold}.parquet", settings_key=ETHUCY,
                           same_start_collisions=True)
          for fold in FOLD_TEST_SCENES}
 

@@ -48,7 +48,8 @@ import numpy as np
 import pandas as pd
 
 from pipeline.benchmarks.base import Benchmark, SceneMasks, ScoredTable, class_values
-from pipeline.config import IndParams, WindowParams
+from pipeline.config.data import IndParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.labels import validate_mask
 from pipeline.data.window_table import COLUMNS, WindowArrays, conform, to_arrays
 from pipeline.data.windows import count_windows, cut_pieces, cut_windows

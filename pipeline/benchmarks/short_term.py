@@ -23,7 +23,8 @@ import numpy as np
 import pandas as pd
 
 from pipeline.benchmarks.base import Benchmark
-from pipeline.config import ShortTermModelsParams, YnetScale, YnetSettings
+from pipeline.config.short_term_models import ShortTermModelsParams, YnetScale
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.window_table import WindowArrays, conform, select_split, to_arrays
 from pipeline.io import IntermediateError
 

@@ -15,7 +15,7 @@ import numpy as np
 from pipeline.benchmarks.ethucy import (ETHUCY_DIR, FOLDS, MAPS, ethucy_fold_windows,
                                         on_road_fraction, write_ethucy_maps)
 from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD, sdd_trajnet_windows
-from pipeline.config import ShortTermParams
+from pipeline.config.short_term import ShortTermParams
 from pipeline.data.windows import count_windows
 from pipeline.io import atomic_dir
 

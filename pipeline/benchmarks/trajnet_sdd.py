@@ -25,9 +25,10 @@ import pandas as pd
 from pipeline.benchmarks.base import SceneMasks, ScoredTable
 from pipeline.benchmarks.short_term import (ShortTermBenchmark, ShortTermInputError, ShortTermSplits,
                                             number_windows, read_rows, splits_of)
-from pipeline.config import ShortTermParams
+from pipeline.config.short_term import ShortTermParams
 from pipeline.data.labels import sdd_scene_image
 from pipeline.data.ynet_data import image_sizes
+from pipeline.dataset_list import SDD
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
 SDD_RATIOS = "H_SDD.txt"  # metres per pixel of every SDD video, inside trajnet-sdd/
@@ -62,8 +63,8 @@ class TrajnetSdd(ShortTermBenchmark):
                            scales_source=f"per video, {Path(scales_path)}", masks=masks)
 
 
-TRAJNET_SDD = TrajnetSdd("trajnet_sdd", "SDD short-term (TrajNet)", "px", dataset="sdd",
-                         table_file="sdd_trajnet.parquet", settings_key="sdd")
+TRAJNET_SDD = TrajnetSdd("trajnet_sdd", "SDD short-term (TrajNet)", "px", dataset=SDD,
+                         table_file="sdd_trajnet.parquet", settings_key=SDD)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from pipeline.config import AugmentParams
+from pipeline.config.segmentation import AugmentParams
 
 
 NO_AUGMENT = AugmentParams(

@@ -20,7 +20,7 @@ from typing import BinaryIO
 
 from tqdm import tqdm
 
-from pipeline.config import FetchParams, UpstreamLocation, is_url, join_address
+from pipeline.config.fetch import FetchParams, UpstreamLocation, is_url, join_address
 from pipeline.data.checksums import CHUNK, read_manifest
 from pipeline.io import atomic_dir
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from pipeline.config import WindowParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import conform
 from pipeline.data.windows import cut_windows, finish_table
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from pipeline.config import LabelsParams
+from pipeline.config.labels import LabelsParams
 from pipeline.io import IntermediateError, atomic_dir, index_value, read_json_index, same_names
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS
 from ynet.segmentation import CLASS_NAMES, N_SCENE_CLASSES, PAD_CLASS

@@ -28,7 +28,7 @@ from pathlib import Path, PurePosixPath
 
 from tqdm import tqdm
 
-from pipeline.config import SddParams
+from pipeline.config.data import SddParams
 from pipeline.data.checksums import CHUNK
 from pipeline.data.tracks import find_annotation_files
 

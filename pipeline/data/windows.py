@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.config import WindowParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.checksums import load_verified_pickle
 from pipeline.data.window_table import conform
 from pipeline.splits import split_of

@@ -29,8 +29,11 @@ import numpy as np
 import torch
 
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config import (EvaluateBaselineParams, RuntimeParams, TrainBaselineParams, WindowParams,
-                             load_profile, load_section)
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_profile, load_section
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, SCORING, TRAINING, describe, select_device
 from pipeline.harness import baselines, epoch_selection

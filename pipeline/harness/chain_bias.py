@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from pipeline.config import WindowParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.horizon_windows import chain_pieces
 from pipeline.data.window_table import to_arrays
 from pipeline.data.windows import cut_pieces, cut_windows

@@ -21,8 +21,10 @@ from typing import Any
 import numpy as np
 
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config import (EvaluateBaselineParams, ParamsError, TrainBaselineParams, WindowParams,
-                             load_section)
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import ParamsError, load_section
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds

@@ -33,8 +33,13 @@ from typing import Any
 import numpy as np
 import torch
 
-from pipeline.config import (EvaluateBaselineParams, PecnetConfig, PecnetTestSelectionParams,
-                             RuntimeParams, TrainBaselineParams, WindowParams, load_section)
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_section
+from pipeline.config.pecnet import PecnetConfig
+from pipeline.config.pecnet_test_selection import PecnetTestSelectionParams
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, TRAINING, describe, select_device
 from pipeline.device import generator as seeded_generator

@@ -28,8 +28,11 @@ from typing import Any
 import numpy as np
 import torch
 
-from pipeline.config import (EvaluateBaselineParams, RpecnetRolloutsParams, RuntimeParams,
-                             WindowParams, load_section)
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_section
+from pipeline.config.rpecnet_rollouts import RpecnetRolloutsParams
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import SCORING, describe, select_device
 from pipeline.device import generator as seeded_generator

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pipeline.config import YnetSeedsParams
+from pipeline.config.ynet_seeds import YnetSeedsParams
 from pipeline.harness.metrics import METRIC_KEYS, summarize_rounds
 from pipeline.io import IntermediateError, index_value, read_json_index
 from pipeline.model_list import BY_NAME, SEEDED_BASELINES

@@ -58,7 +58,7 @@ from pipeline.benchmarks.base import SceneMasks, ScoredTable, WindowTruth
 from pipeline.benchmarks.ethucy import EthUcyFold, road_masks
 from pipeline.benchmarks.registry import short_term
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config import ScorePredictionsParams
+from pipeline.config.score_predictions import ScorePredictionsParams
 from pipeline.harness import scoring
 from pipeline.harness.predictions import NOT_RUN, PredictionArrays, read_prediction_rounds
 from pipeline.io import IntermediateError

@@ -48,7 +48,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from pipeline.config import ParamsError, read_params
+from pipeline.config.loading import ParamsError, read_params
 from pipeline.data.window_table import WindowArrays
 from pipeline.model_list import PAPER_MODEL_NAMES, PAPER_MODELS
 

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from pipeline.config import DATASETS
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.io import IntermediateError
 
 # What each stored array must look like: a letter names a size that must agree across arrays.
@@ -51,7 +51,7 @@ WINDOW_SHAPES = {
 BENCHMARK_TITLES = {
     "long_term": "SDD long-term, 1 s a step",
     **{f"short_term_{d}": ("SDD short-term (TrajNet)" if d == "sdd" else f"ETH/UCY, {d} fold")
-       + ", 0.4 s a step" for d in DATASETS},
+       + ", 0.4 s a step" for d in SHORT_TERM_DATASETS},
 }
 LABEL = re.compile(r"[a-z0-9_]+")  # labels name files: <label>_<i>.webp
 

@@ -70,7 +70,7 @@ from typing import Any
 
 import yaml
 
-from pipeline.config import ReportParams
+from pipeline.config.report import ReportParams
 from pipeline.splits import TEST_VIDEOS
 from pipeline.io import atomic_dir, write_text
 from pipeline.models import ModelEntry

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.config import ReportParams
+from pipeline.config.report import ReportParams
 from pipeline.models import ModelEntry
 from pipeline.report.common import (DATASETS, LONG_TERM_KE, LONG_TERM_TF, METRICS, PIPELINE_MODELS,
                                     relative_difference)

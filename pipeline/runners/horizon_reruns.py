@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.config import EvalParams
+from pipeline.config.eval import EvalParams
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import image_sizes

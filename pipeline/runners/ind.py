@@ -41,10 +41,16 @@ import numpy as np
 import torch
 
 from pipeline.benchmarks.ind import IND, read_index, read_windows
-from pipeline.config import (CwsParams, EvalParams, EvaluateBaselineParams, IndBenchmarkParams,
-                             RuntimeParams, SegmentationParams,
-                             TrainBaselineParams, TtstParams, load_profile, load_section,
-                             YnetSettings)
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.ind_benchmark import IndBenchmarkParams
+from pipeline.config.loading import load_profile, load_section
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.segmentation import SegmentationParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.semantic_maps import iou_summary, predicted_labels, resize_probabilities
 from pipeline.data.window_table import WindowArrays, select_split
 from pipeline.device import CPU

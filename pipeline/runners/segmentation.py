@@ -32,7 +32,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from pipeline.config import SegmentationParams
+from pipeline.config.segmentation import SegmentationParams
 from pipeline.data.augment import random_crop
 from pipeline.data.labels import read_label_map, reference_image_path
 from pipeline import checkpoints

@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 import torch
 
-from pipeline.config import SemanticParams
+from pipeline.config.semantic import SemanticParams
 from pipeline.data.labels import read_index, read_label_map, reference_image_path
 from pipeline.data.semantic_maps import (QUANT, comparison_figure, iou_summary, one_hot_map,
                                          predicted_labels, quantise, resize_probabilities)

@@ -55,7 +55,10 @@ import numpy as np
 import torch
 
 from pipeline.benchmarks.short_term import ShortTermBenchmark, ShortTermSplits
-from pipeline.config import CwsParams, ShortTermModelsParams, TtstParams, YnetSettings
+from pipeline.config.cws import CwsParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays, subset
 from pipeline.data.ynet_data import SceneWindows

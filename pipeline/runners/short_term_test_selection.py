@@ -27,9 +27,11 @@ from typing import Any
 import torch
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config import (ShortTermModelsParams, ShortTermParams,
-                             ShortTermPecnetTestSelectionParams, TrainBaselineParams, load_profile,
-                             load_section)
+from pipeline.config.loading import load_profile, load_section
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.short_term_pecnet_test_selection import ShortTermPecnetTestSelectionParams
+from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.device import CPU, describe
 from pipeline.harness.pecnet_test_selection import (LABEL, PROTOCOLS, compat_summary,
                                                     retrain_scoring_splits)

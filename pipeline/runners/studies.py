@@ -15,7 +15,7 @@ from typing import Any
 
 import yaml
 
-from pipeline.config import ParamsError
+from pipeline.config.loading import ParamsError
 from pipeline.io import write_text
 
 REPO = Path(__file__).resolve().parents[2]

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipeline.config import HorizonParams
+from pipeline.config.ynet_horizons import HorizonParams
 from pipeline.data.window_table import WindowArrays, to_arrays
 
 TRAINING_HEADER = ("t_f", "profile", "trained", "waypoints")

@@ -22,7 +22,8 @@ from pathlib import Path
 import pandas as pd
 import torch
 
-from pipeline.config import YnetSeedsParams, YnetSettings
+from pipeline.config.ynet import YnetSettings
+from pipeline.config.ynet_seeds import YnetSeedsParams
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
 from pipeline.data.ynet_data import image_sizes

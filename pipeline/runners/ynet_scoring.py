@@ -28,7 +28,10 @@ import torch
 from tqdm import tqdm
 
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config import CwsParams, EvalParams, TtstParams, YnetSettings
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.labels import sdd_scene_image
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import SceneWindows, group_by_scene, window_inputs

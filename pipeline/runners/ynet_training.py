@@ -27,7 +27,7 @@ import pandas as pd
 import torch
 from tqdm import tqdm
 
-from pipeline.config import AUGMENTATIONS, YnetSettings
+from pipeline.config.ynet import AUGMENTATIONS, YnetSettings
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import (SceneWindows, TrainingBatch, augment,
                                      cropped_training_batch, group_by_scene, padded_semantic,

@@ -19,8 +19,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipeline.config import (CompatParams, DataParams, SplitParams, WindowParams, load_section,
-                             read_params)
+from pipeline.config.compat import CompatParams
+from pipeline.config.data import DataParams
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.split import SplitParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.audit import audit
 from pipeline.data.checksums import ChecksumError, read_manifest
 from pipeline.data.sdd_sources import SourceError, annotation_files, choose_videos, copy_root

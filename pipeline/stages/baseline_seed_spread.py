@@ -18,8 +18,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import (BaselineSeedsParams, WindowParams, YnetSeedsParams, load_profile,
-                             load_section, read_params, ynet_main_seed, ynet_seed_slots)
+from pipeline.config.baseline_seeds import BaselineSeedsParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.windows import WindowParams
+from pipeline.config.ynet import ynet_main_seed
+from pipeline.config.ynet_seeds import YnetSeedsParams, ynet_seed_slots
 from pipeline.harness.seed_spread import YnetSeeds, seed_spread
 from pipeline.io import exit_on_bad_intermediate, write_json
 

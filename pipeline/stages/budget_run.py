@@ -34,7 +34,8 @@ from pathlib import Path
 from typing import Any
 
 from pipeline.checkpoints import read
-from pipeline.config import DATASETS, read_params
+from pipeline.config.loading import read_params
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.io import write_json
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.report.run_provenance import machine
@@ -81,7 +82,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--model", required=True, choices=TRAINED_BASELINES)
     parser.add_argument("--factor", type=int, required=True, help="x the profile's epochs")
     parser.add_argument("--horizon", type=int, help="long_term_baseline: t_f (s)")
-    parser.add_argument("--dataset", choices=DATASETS, help="short_term_baseline: the benchmark")
+    parser.add_argument("--dataset", choices=SHORT_TERM_DATASETS,
+                        help="short_term_baseline: the benchmark")
     parser.add_argument("--windows", type=Path, required=True,
                         help="the horizon's table (long-term) or data/short_term (short-term)")
     parser.add_argument("--scratch", type=Path, required=True,

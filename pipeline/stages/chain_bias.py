@@ -14,7 +14,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipeline.config import WindowParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.windows import WindowParams
 from pipeline.harness.chain_bias import chain_bias
 from pipeline.io import write_json
 

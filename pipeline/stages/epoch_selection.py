@@ -18,8 +18,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import (BaselineSeedsParams, EpochSelectionStudyParams, TrainBaselineParams,
-                             WindowParams, load_section, read_params)
+from pipeline.config.baseline_seeds import BaselineSeedsParams
+from pipeline.config.epoch_selection_study import EpochSelectionStudyParams
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
 from pipeline.harness.baseline_runs import epoch_selection_study, long_term_runs
 from pipeline.io import write_json
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.harness import baselines
 from pipeline.harness.baseline_runs import score_to_file
 

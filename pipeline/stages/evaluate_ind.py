@@ -20,7 +20,7 @@ import argparse
 import json
 from pathlib import Path
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.device import SCORING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ind import IndEvalSettings, evaluate_benchmark, write_predictions

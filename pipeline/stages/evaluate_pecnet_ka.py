@@ -17,8 +17,11 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config import (EvalParams, EvaluateBaselineParams, RuntimeParams, WindowParams,
-                             load_profile, load_section, read_params)
+from pipeline.config.eval import EvalParams
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import load_windows
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness import baselines

@@ -33,8 +33,11 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
-                             load_profile, load_section, read_params)
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
@@ -48,7 +51,7 @@ MODEL = "ynet"
 @exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", required=True, choices=DATASETS)
+    parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--maps", type=Path, required=True,

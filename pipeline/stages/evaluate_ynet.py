@@ -22,8 +22,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipeline.config import (CwsParams, EvalParams, RuntimeParams, TtstParams, load_profile,
-                             load_section, read_params)
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.ttst import TtstParams
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
 from pipeline.data.ynet_data import image_sizes

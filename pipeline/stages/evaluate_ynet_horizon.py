@@ -26,7 +26,9 @@ import time
 from pathlib import Path
 
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config import RuntimeParams, WindowParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.windows import WindowParams
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ynet_horizon import horizon_splits, training_summary

@@ -25,7 +25,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipeline.config import RuntimeParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.runtime import RuntimeParams
 from pipeline.data.window_table import to_arrays
 from pipeline.io import exit_on_bad_intermediate, index_value, read_json_index, write_json
 from pipeline.slot_scoring import SlotScoring, check_agrees, read_slot_scoring, seed_slot

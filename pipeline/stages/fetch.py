@@ -14,7 +14,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from pipeline.config import FETCH_SOURCES, FetchParams, load_section, read_params
+from pipeline.config.fetch import FETCH_SOURCES, FetchParams
+from pipeline.config.loading import load_section, read_params
 from pipeline.data.fetch import FetchError, fetch_source
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.harness.model_runs import fit_to_workdir
 
 

@@ -28,7 +28,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipeline.config import EvalParams, WindowParams, load_profile, load_section, read_params
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.windows import WindowParams
 from pipeline.harness import horizon_analysis as analysis
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.models import all_models, load_models

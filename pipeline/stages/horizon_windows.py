@@ -16,7 +16,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipeline.config import SplitParams, WindowParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.split import SplitParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.horizon_windows import ChainError, chain_pieces, horizon_table
 from pipeline.data.windows import count_windows
 from pipeline.io import atomic_dir, write_json

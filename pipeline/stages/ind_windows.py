@@ -17,7 +17,9 @@ import sys
 from pathlib import Path
 
 from pipeline.benchmarks.ind import NOT_PROVIDED_REASON, IndError, build, write
-from pipeline.config import DataParams, WindowParams, load_section, read_params
+from pipeline.config.data import DataParams
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.windows import WindowParams
 from pipeline.data.labels import MaskError
 
 

@@ -13,7 +13,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import LabelsParams, load_section, read_params
+from pipeline.config.labels import LabelsParams
+from pipeline.config.loading import load_section, read_params
 from pipeline.data.labels import import_labels
 
 

@@ -22,7 +22,7 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.harness.pecnet_test_selection import diagnose, summary_line
 from pipeline.io import write_json
 

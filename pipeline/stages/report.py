@@ -22,7 +22,8 @@ import argparse
 import os
 from pathlib import Path
 
-from pipeline.config import ReportParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.report import ReportParams
 from pipeline.models import load_models
 from pipeline.report.page import Inputs, write_report
 from pipeline.report.run_provenance import read_lock

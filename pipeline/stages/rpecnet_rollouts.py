@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.harness.rpecnet_rollouts import rollouts_record
 from pipeline.io import write_json
 

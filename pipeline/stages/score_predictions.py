@@ -24,7 +24,9 @@ from pathlib import Path
 
 from pipeline.benchmarks.ind import IND
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM, read_scales, sdd_label_masks
-from pipeline.config import ScorePredictionsParams, WindowParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.score_predictions import ScorePredictionsParams
+from pipeline.config.windows import WindowParams
 from pipeline.harness.stored_scores import score_benchmarks, score_tables
 from pipeline.io import exit_on_bad_intermediate, write_json
 

@@ -20,8 +20,10 @@ import argparse
 from pathlib import Path
 
 from pipeline.benchmarks.sdd_long_term import read_scales, sdd_label_masks
-from pipeline.config import (DATASETS, ScorePredictionsParams, ShortTermParams, load_section,
-                             read_params)
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.score_predictions import ScorePredictionsParams
+from pipeline.config.short_term import ShortTermParams
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.harness.stored_scores import score_benchmarks, short_term_tables
 from pipeline.io import exit_on_bad_intermediate, write_json
 
@@ -42,7 +44,7 @@ def main(argv: list[str] | None = None) -> None:
     params = read_params(args.params)
     settings = load_section(ScorePredictionsParams, "score_predictions", params)
     n_past = load_section(ShortTermParams, "short_term", params).n_past
-    benchmarks = short_term_tables(args.windows, args.predictions, DATASETS, n_past,
+    benchmarks = short_term_tables(args.windows, args.predictions, SHORT_TERM_DATASETS, n_past,
                                    sdd_label_masks(args.labels, settings.forbidden_classes),
                                    read_scales(args.scales), args.scales)
     write_json(score_benchmarks(benchmarks, settings), args.out)

@@ -17,7 +17,9 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config import RuntimeParams, SegmentationParams, load_profile, load_section, read_params
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.segmentation import SegmentationParams
 from pipeline.data.labels import read_index
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate

@@ -15,7 +15,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import RuntimeParams, SemanticParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.semantic import SemanticParams
 from pipeline.device import SCORING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate
 from pipeline.runners.semantic_maps import build_maps

@@ -27,8 +27,10 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config import (DATASETS, RuntimeParams, TrainBaselineParams, load_section,
-                             read_params)
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import TRAINING, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.harness.pecnet_test_selection import summary_line
@@ -39,7 +41,7 @@ from pipeline.runners.short_term_test_selection import (fold_record, switched_of
 @exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", required=True, choices=DATASETS)
+    parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--training-facts", type=Path, required=True,

@@ -28,7 +28,8 @@ import json
 import time
 from pathlib import Path
 
-from pipeline.config import DATASETS, read_params
+from pipeline.config.loading import read_params
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.io import write_json
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.report.run_provenance import machine
@@ -61,7 +62,7 @@ def stage_commands(args: argparse.Namespace, scratch: Path) -> list[tuple[str, l
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", required=True, choices=DATASETS)
+    parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
     parser.add_argument("--model", required=True, choices=MODELS)
     parser.add_argument("--seed", type=int, required=True, help="training seed")
     parser.add_argument("--windows", type=Path, required=True, help="short_term_windows' folder")

@@ -23,9 +23,10 @@ import json
 from pathlib import Path
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config import DATASETS, MODELS
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.harness.metrics import METRIC_KEYS
 from pipeline.io import write_json
+from pipeline.model_list import SHORT_TERM_MODELS_OURS_FIRST
 
 ETHUCY_K = 20  # Table 2's K
 SUMMARY_KEYS = ("mean", "std", "min", "max")
@@ -58,8 +59,9 @@ def model_entry(run: dict, dataset: str) -> dict:
 def tables(runs: dict[tuple[str, str], dict]) -> dict[str, dict]:
     """File name -> content, from the runs found, keyed (dataset, model)."""
     out = {}
-    for dataset in DATASETS:
-        found = {model: runs[dataset, model] for model in MODELS if (dataset, model) in runs}
+    for dataset in SHORT_TERM_DATASETS:
+        found = {model: runs[dataset, model] for model in SHORT_TERM_MODELS_OURS_FIRST
+                 if (dataset, model) in runs}
         scored = [run for run in found.values() if "not_run_reason" not in run]
         out[table_file(dataset)] = {
             "dataset": dataset,
@@ -73,8 +75,8 @@ def tables(runs: dict[tuple[str, str], dict]) -> dict[str, dict]:
 
 def read_runs(folder: Path) -> dict[tuple[str, str], dict]:
     runs = {}
-    for dataset in DATASETS:
-        for model in MODELS:
+    for dataset in SHORT_TERM_DATASETS:
+        for model in SHORT_TERM_MODELS_OURS_FIRST:
             path = run_file(folder, dataset, model)
             if path.exists():
                 runs[dataset, model] = json.loads(path.read_text())
@@ -89,7 +91,8 @@ def main(argv: list[str] | None = None) -> None:
     runs = read_runs(args.runs)
     for name, content in tables(runs).items():
         write_json(content, args.out / name)
-    print(f"short_term_tables: {len(runs)} of {len(DATASETS) * len(MODELS)} runs merged")
+    expected = len(SHORT_TERM_DATASETS) * len(SHORT_TERM_MODELS_OURS_FIRST)
+    print(f"short_term_tables: {len(runs)} of {expected} runs merged")
 
 
 if __name__ == "__main__":

@@ -19,7 +19,8 @@ from pathlib import Path
 
 from pipeline.benchmarks.short_term import ShortTermInputError
 from pipeline.benchmarks.short_term_windows import build
-from pipeline.config import ShortTermParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.short_term import ShortTermParams
 from pipeline.data.homography import HomographyError
 from pipeline.io import write_json
 

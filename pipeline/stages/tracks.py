@@ -20,7 +20,9 @@ import json
 import sys
 from pathlib import Path
 
-from pipeline.config import CompatParams, DataParams, load_section, read_params
+from pipeline.config.compat import CompatParams
+from pipeline.config.data import DataParams
+from pipeline.config.loading import load_section, read_params
 from pipeline.data.checksums import ChecksumError, read_manifest
 from pipeline.data.sdd_sources import (SourceError, annotation_files, choose_videos, copy_images,
                                        copy_root, sources_record)

@@ -15,7 +15,7 @@ Params: `train_baseline` (seed, threads), `<model>.<profile>`, `profile`, `windo
 
 from __future__ import annotations
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.harness.baseline_runs import run_arguments, train_record
 from pipeline.io import write_json
 from pipeline.preemption import exit_when_stopped

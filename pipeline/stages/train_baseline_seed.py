@@ -17,7 +17,7 @@ Params: `train_baseline.threads`, `<model>.<profile>`, `profile`, `windows.n_pas
 
 from __future__ import annotations
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.harness.baseline_runs import run_arguments, train_record, validation_curve
 from pipeline.io import write_json
 from pipeline.preemption import exit_when_stopped

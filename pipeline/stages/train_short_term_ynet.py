@@ -22,8 +22,12 @@ import argparse
 from pathlib import Path
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config import (DATASETS, RuntimeParams, ShortTermModelsParams, ShortTermParams,
-                             YnetSettings, load_profile, load_section, read_params)
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
@@ -36,7 +40,7 @@ MODEL = "ynet"
 @exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", required=True, choices=DATASETS)
+    parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--maps", type=Path, required=True,

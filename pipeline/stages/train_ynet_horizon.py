@@ -22,8 +22,11 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from pipeline.config import (HorizonParams, RuntimeParams, WindowParams, YnetSettings, load_profile,
-                             load_section, read_params)
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.windows import WindowParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.config.ynet_horizons import HorizonParams
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.ynet_data import image_sizes
 from pipeline.device import TRAINING, describe, select_device

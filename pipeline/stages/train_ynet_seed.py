@@ -22,8 +22,10 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from pipeline.config import (RuntimeParams, YnetSeedsParams, YnetSettings, load_profile,
-                             load_section, read_params)
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.config.ynet_seeds import YnetSeedsParams
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped

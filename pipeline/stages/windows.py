@@ -19,7 +19,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipeline.config import SplitParams, WindowParams, load_section, read_params
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.split import SplitParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.checksums import ChecksumError, read_manifest
 from pipeline.data.windows import ReleaseError, count_windows, raw_windows, release_windows
 from pipeline.io import atomic_dir, write_json

@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config import read_params
+from pipeline.config.loading import read_params
 from pipeline.io import atomic_dir, write_json
 from pipeline.slot_scoring import slot_payloads
 

@@ -37,7 +37,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from pipeline import checkpoints
-from pipeline.config import PecnetConfig
+from pipeline.config.pecnet import PecnetConfig
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.common import FitResult, as_input, mlp
 from pipeline.device import generator as seeded_generator

@@ -29,7 +29,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from pipeline import checkpoints
-from pipeline.config import SganConfig
+from pipeline.config.sgan import SganConfig
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.common import FitResult, as_input, mlp
 from pipeline.device import generator as seeded_generator
