@@ -1,11 +1,14 @@
 """The project's import graph, read from the source (no imports run): which modules a file imports,
 every project file a module needs, and the fingerprint of that code.
 
-A stage's code is the closure of its module (`code_closure`). Stage `code_fingerprints` writes each
-stage module's `fingerprint` to a file the stage declares as its one code dep, so DVC re-runs a
-stage exactly when the code of a file its module reaches changes (`code_text`: comments, blank
-lines and trailing spaces are not code), while dvc.lock records one entry per stage instead of one
-per imported file (each stage that finishes rewrites the whole lock file).
+A stage's code is the closure of its module (`code_closure`): every file whose code can run when
+the module runs. Stage `code_fingerprints` writes each stage module's `fingerprint` to a file the
+stage declares as its one code dep, so DVC re-runs a stage exactly when the code of a file its
+module reaches changes (`code_text`: comments, blank lines and trailing spaces are not code), while
+dvc.lock records one entry per stage instead of one per imported file (each stage that finishes
+rewrites the whole lock file). An import under `if TYPE_CHECKING:` never runs, so it is no part of
+a closure (a parameter's type named for the reader: whoever builds such an object imports its
+class at run time, and that importer is in the closure); the import graph still counts it.
 `tests/test_dvc_deps.py` and `tests/test_import_graph.py` check the house with it.
 """
 
@@ -28,20 +31,38 @@ def module_name(path: Path, root: Path = REPO) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def imported_modules(path: Path, root: Path = REPO) -> set[str]:
+def imported_modules(path: Path, root: Path = REPO, when_run: bool = False) -> set[str]:
     """Absolute names `path` imports: `import a.b` -> a.b; `from a import b` -> a and a.b
-    (relative imports resolved); imports inside functions count too. Each version of a file (its
-    mtime and size) is parsed once: every stage's closure passes through the same libraries."""
+    (relative imports resolved); imports inside functions count too. `when_run`: only the imports
+    that can run, not those under `if TYPE_CHECKING:`. Each version of a file (its mtime and size)
+    is parsed once: every stage's closure passes through the same libraries."""
     stat = path.stat()
-    return set(_imported_modules(path, root, (stat.st_mtime_ns, stat.st_size)))
+    return set(_imported_modules(path, root, (stat.st_mtime_ns, stat.st_size), when_run))
+
+
+def type_checking_only(tree: ast.AST) -> set[ast.AST]:
+    """The nodes inside the body of an `if TYPE_CHECKING:` (or `typing.TYPE_CHECKING`), which
+    Python never runs."""
+    skipped = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and ast.unparse(node.test) in ("TYPE_CHECKING",
+                                                                     "typing.TYPE_CHECKING"):
+            for statement in node.body:
+                skipped.update(ast.walk(statement))
+    return skipped
 
 
 @cache
-def _imported_modules(path: Path, root: Path, version: tuple[int, int]) -> frozenset[str]:
+def _imported_modules(path: Path, root: Path, version: tuple[int, int],
+                      when_run: bool) -> frozenset[str]:
     name = module_name(path, root)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    tree = ast.parse(path.read_text())
+    skipped = type_checking_only(tree) if when_run else set()
+    for node in ast.walk(tree):
+        if node in skipped:
+            continue
         if isinstance(node, ast.Import):
             found.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -74,7 +95,8 @@ def has_code(path: Path) -> bool:
 
 @cache
 def code_closure(module: str, root: Path = REPO) -> frozenset[str]:
-    """Root-relative files of `module`, its parent packages and everything they import."""
+    """Root-relative files of `module`, its parent packages and everything they import at run
+    time."""
     seen: set[Path] = set()
     todo = [module]
     while todo:
@@ -85,7 +107,7 @@ def code_closure(module: str, root: Path = REPO) -> frozenset[str]:
             if path is None or path in seen:
                 continue
             seen.add(path)
-            todo.extend(imported_modules(path, root))
+            todo.extend(imported_modules(path, root, when_run=True))
     return frozenset(p.relative_to(root).as_posix() for p in seen
                      if p.name != "__init__.py" or has_code(p))
 

@@ -19,7 +19,8 @@ import pytest
 import yaml
 from dvc.repo import Repo
 
-from pipeline.code_graph import PACKAGES, REPO, code_closure, code_text, entry_points, fingerprint
+from pipeline.code_graph import (PACKAGES, REPO, code_closure, code_text, entry_points, fingerprint,
+                                 imported_modules)
 from pipeline.stages import code_fingerprints
 
 NOT_A_DEP = {"dvc.lock"}  # read by `report` for provenance; a dep on it could never be up to date
@@ -113,6 +114,31 @@ def test_a_fingerprint_changes_exactly_when_code_the_module_reaches_changes(tmp_
     assert fingerprint("pipeline.stages.beta", root) != beta
     (root / "pipeline/helper.py").write_text("X = 2\n")
     assert fingerprint("pipeline.stages.alpha", root)["pipeline/helper.py"] != before["pipeline/helper.py"]
+
+
+def test_an_import_only_for_type_checking_is_no_code_of_the_closure(tmp_path):
+    """An import under `if TYPE_CHECKING:` never runs: editing its file leaves the fingerprint as
+    it was, while the import graph (the floors) still sees it; a run-time import of the same file
+    elsewhere in the closure brings it back."""
+    root = tmp_path / "repo"
+    for path, text in {
+        "pipeline/__init__.py": "",
+        "pipeline/section.py": "X = 1\n",
+        "pipeline/lib.py": ("from typing import TYPE_CHECKING\n\nif TYPE_CHECKING:\n"
+                            "    from pipeline.section import X\n\n\ndef f(x: X):\n    return x\n"),
+        "pipeline/stages/__init__.py": "",
+        "pipeline/stages/alpha.py": "from pipeline.lib import f\n",
+        "pipeline/stages/beta.py": "from pipeline.lib import f\nfrom pipeline.section import X\n",
+    }.items():
+        (root / path).parent.mkdir(parents=True, exist_ok=True)
+        (root / path).write_text(text)
+    assert "pipeline.section" in imported_modules(root / "pipeline/lib.py", root)
+    assert "pipeline.section" not in imported_modules(root / "pipeline/lib.py", root, when_run=True)
+    alpha = fingerprint("pipeline.stages.alpha", root)
+    assert set(alpha) == {"pipeline/lib.py", "pipeline/stages/alpha.py"}
+    assert "pipeline/section.py" in fingerprint("pipeline.stages.beta", root)
+    (root / "pipeline/section.py").write_text("X = 2\n")
+    assert fingerprint("pipeline.stages.alpha", root) == alpha
 
 
 def test_comments_blank_lines_and_trailing_spaces_are_not_code(tmp_path):

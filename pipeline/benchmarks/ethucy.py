@@ -37,6 +37,7 @@ import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -45,13 +46,15 @@ import pandas as pd
 from pipeline.benchmarks.base import SceneMasks, ScoredTable
 from pipeline.benchmarks.short_term import (METRE_COLUMNS, ShortTermBenchmark, ShortTermInputError,
                                             ShortTermSplits, number_windows, read_rows, splits_of)
-from pipeline.config.short_term import ShortTermParams
 from pipeline.data.homography import metres_to_pixels, pixels_to_metres, read_homography
 from pipeline.data.semantic_maps import QUANT, load_semantic_maps, quantise
 from pipeline.data.window_table import select_split, to_arrays
 from pipeline.dataset_list import ETHUCY
 from pipeline.io import IntermediateError, index_value, positive_ints, read_json_index
 from pipeline.splits import FOLD_TEST_SCENES
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.short_term import ShortTermParams
 
 ETHUCY_DIR = Path("data/eth_ucy")  # inside ynet-release/: <scene>_H.txt, <scene>/oracle.png
 MAP_CLASSES = ("padding", "not_road", "road")  # channel order of the ETH/UCY maps (N_c = 2 + padding)

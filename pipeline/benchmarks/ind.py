@@ -42,19 +42,22 @@ import shutil
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 import pandas as pd
 
 from pipeline.benchmarks.base import Benchmark, SceneMasks, ScoredTable, class_values
-from pipeline.config.data import IndParams
-from pipeline.config.windows import WindowParams
 from pipeline.data.labels import validate_mask
 from pipeline.data.window_table import COLUMNS, WindowArrays, conform, to_arrays
 from pipeline.data.windows import count_windows, cut_pieces, cut_windows
 from pipeline.io import (IntermediateError, atomic_dir, index_value, read_json_index,
                          write_json)
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.data import IndParams
+    from pipeline.config.windows import WindowParams
 
 # Columns of the official inD format this stage reads (the files hold more; see the inD
 # documentation: tracks also carry heading, width, length, velocities and accelerations).

@@ -17,16 +17,18 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from pipeline.benchmarks.base import Benchmark
-from pipeline.config.short_term_models import ShortTermModelsParams, YnetScale
-from pipeline.config.ynet import YnetSettings
 from pipeline.data.window_table import WindowArrays, conform, select_split, to_arrays
 from pipeline.io import IntermediateError
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.short_term_models import ShortTermModelsParams, YnetScale
+    from pipeline.config.ynet import YnetSettings
 
 METRE_COLUMNS = ("x_m", "y_m")
 SPLITS = ("train", "val", "test")
@@ -117,8 +119,9 @@ class ShortTermBenchmark(Benchmark):
     def ynet_settings(self, base: YnetSettings, params: ShortTermModelsParams, n_future: int,
                       semantic_classes: int) -> YnetSettings:
         """`ynet.<profile>` (`base`) with the short-term goal-only waypoint, this benchmark's scale
-        and epochs, and its training departures (`ynet_training.<key>`)."""
-        return YnetSettings(**{
+        and epochs, and its training departures (`ynet_training.<key>`). Built as `type(base)`: the
+        caller, which read `base`, holds the section's class."""
+        return type(base)(**{
             **asdict(base), **asdict(self.ynet_scale(params)),
             **params.ynet_training.of(self.settings_key).overrides(),
             "waypoints": [n_future - 1], "epochs": self.epochs(params, "ynet"),

@@ -9,15 +9,18 @@ Tables: the window-table schema (`pipeline.data.window_table`) plus the metres `
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pipeline.benchmarks.ethucy import (ETHUCY_DIR, FOLDS, MAPS, ethucy_fold_windows,
                                         on_road_fraction, write_ethucy_maps)
 from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD, sdd_trajnet_windows
-from pipeline.config.short_term import ShortTermParams
 from pipeline.data.windows import count_windows
 from pipeline.io import atomic_dir
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.short_term import ShortTermParams
 
 
 def build(trajnet_root: Path, sgan_root: Path, release_root: Path, scenes_root: Path, out: Path,

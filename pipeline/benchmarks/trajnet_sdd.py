@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -25,11 +26,13 @@ import pandas as pd
 from pipeline.benchmarks.base import SceneMasks, ScoredTable
 from pipeline.benchmarks.short_term import (ShortTermBenchmark, ShortTermInputError, ShortTermSplits,
                                             number_windows, read_rows, splits_of)
-from pipeline.config.short_term import ShortTermParams
 from pipeline.data.labels import sdd_scene_image
 from pipeline.data.ynet_data import image_sizes
 from pipeline.dataset_list import SDD
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.short_term import ShortTermParams
 
 SDD_RATIOS = "H_SDD.txt"  # metres per pixel of every SDD video, inside trajnet-sdd/
 

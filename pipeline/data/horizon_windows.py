@@ -12,12 +12,16 @@ measures by how much).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 
-from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import conform
 from pipeline.data.windows import cut_windows, finish_table
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.windows import WindowParams
 
 
 class ChainError(ValueError):

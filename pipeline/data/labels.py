@@ -14,14 +14,17 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-from pipeline.config.labels import LabelsParams
 from pipeline.io import IntermediateError, atomic_dir, index_value, read_json_index, same_names
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS
 from ynet.segmentation import CLASS_NAMES, N_SCENE_CLASSES, PAD_CLASS
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.labels import LabelsParams
 
 LABEL_VALUES = tuple(range(1, N_SCENE_CLASSES + 1))  # values a hand mask may hold
 MASK_DIR = Path("data/SDD_semantic_maps")  # inside the ynet-release folder

@@ -25,12 +25,15 @@ import hashlib
 from collections import Counter
 from dataclasses import dataclass, replace
 from pathlib import Path, PurePosixPath
+from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
-from pipeline.config.data import SddParams
 from pipeline.data.checksums import CHUNK
 from pipeline.data.tracks import find_annotation_files
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.data import SddParams
 
 ORIGIN_FETCHED = "fetched"  # the mirror's file, verified by fetch@sdd
 ORIGIN_IDENTICAL = "fetched; your copy identical"  # the copy holds the same (pinned) bytes

@@ -10,14 +10,17 @@ in the same schema. Everything is vectorised: the 790k raw annotations take abou
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
-from pipeline.config.windows import WindowParams
 from pipeline.data.checksums import load_verified_pickle
 from pipeline.data.window_table import conform
 from pipeline.splits import split_of
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.windows import WindowParams
 
 RELEASE_FILES = {"train": "data/SDD/train_longterm.pkl", "test": "data/SDD/test_longterm.pkl"}
 RELEASE_COLUMNS = ["trackId", "frame", "x", "y", "sceneId", "metaId"]

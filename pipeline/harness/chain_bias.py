@@ -10,13 +10,16 @@ the constant-velocity ADE / FDE on each, so a reader sees the bias of the `relea
 from __future__ import annotations
 
 import pandas as pd
+from typing import TYPE_CHECKING
 
-from pipeline.config.windows import WindowParams
 from pipeline.data.horizon_windows import chain_pieces
 from pipeline.data.window_table import to_arrays
 from pipeline.data.windows import cut_pieces, cut_windows
 from pipeline.harness.metrics import ade_fde
 from pipeline.models.constant_velocity import extrapolate
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.windows import WindowParams
 
 
 def as_table(windows: pd.DataFrame) -> pd.DataFrame:

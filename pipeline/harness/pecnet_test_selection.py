@@ -28,14 +28,13 @@ import json
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 import torch
 
 from pipeline.config.evaluate_baseline import EvaluateBaselineParams
 from pipeline.config.loading import load_section
-from pipeline.config.pecnet import PecnetConfig
 from pipeline.config.pecnet_test_selection import PecnetTestSelectionParams
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.train_baseline import TrainBaselineParams
@@ -48,6 +47,9 @@ from pipeline.harness.baseline_runs import model_config
 from pipeline.data.window_table import select_split
 from pipeline.harness.baselines.pecnet import Pecnet
 from pipeline.harness.scoring import best_endpoint_ade, min_ade_fde
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.pecnet import PecnetConfig
 
 PROTOCOLS = {
     "headline": "ours: min over K of ADE and, independently, min over K of FDE per window",

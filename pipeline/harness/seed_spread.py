@@ -29,12 +29,14 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
-from pipeline.config.ynet_seeds import YnetSeedsParams
 from pipeline.harness.metrics import METRIC_KEYS, summarize_rounds
 from pipeline.io import IntermediateError, index_value, read_json_index
 from pipeline.model_list import BY_NAME, SEEDED_BASELINES
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.ynet_seeds import YnetSeedsParams
 
 MODELS = SEEDED_BASELINES  # every trained long-term baseline (S-GAN, PECNet, R-PECNet)
 # What must be equal between the seeds' records for only training to differ.

@@ -50,7 +50,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
@@ -58,10 +58,12 @@ from pipeline.benchmarks.base import SceneMasks, ScoredTable, WindowTruth
 from pipeline.benchmarks.ethucy import EthUcyFold, road_masks
 from pipeline.benchmarks.registry import short_term
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config.score_predictions import ScorePredictionsParams
 from pipeline.harness import scoring
 from pipeline.harness.predictions import NOT_RUN, PredictionArrays, read_prediction_rounds
 from pipeline.io import IntermediateError
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.score_predictions import ScorePredictionsParams
 
 PATH_METRICS = ("ade", "fde", "ade_joint", "fde_joint", "ade_best_endpoint", "miss_rate",
                 "kde_nll", "kde_degenerate_share")  # from the paths alone

@@ -66,11 +66,10 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 import yaml
 
-from pipeline.config.report import ReportParams
 from pipeline.splits import TEST_VIDEOS
 from pipeline.io import atomic_dir, write_text
 from pipeline.models import ModelEntry
@@ -94,6 +93,9 @@ from pipeline.report.seed_spread import seed_spread_section
 from pipeline.report.series import (diagnostics_section, horizon_series, ka_series, paper_ka_points,
                                     paper_long_term_points, plot_rows)
 from pipeline.report.tables import build_tables, headline_metrics, summarize
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.report import ReportParams
 
 TEMPLATE = Path(__file__).parent / "templates" / "report.html.j2"
 

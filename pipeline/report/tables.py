@@ -9,11 +9,10 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
-from pipeline.config.report import ReportParams
 from pipeline.models import ModelEntry
 from pipeline.report.common import (DATASETS, LONG_TERM_KE, LONG_TERM_TF, METRICS, PIPELINE_MODELS,
                                     relative_difference)
@@ -26,6 +25,9 @@ from pipeline.report.provenance import (PROTOCOLS, BudgetPoint, CellSource, Sour
 from pipeline.report.budget import LONG_TERM_BENCHMARK, BudgetRun, budget_point
 from pipeline.report.series import Series
 from pipeline.report.short_term_seeds import ShortTermSeeds
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.report import ReportParams
 
 
 @dataclass(frozen=True)

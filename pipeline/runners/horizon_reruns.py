@@ -10,11 +10,10 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
-from pipeline.config.eval import EvalParams
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import image_sizes
@@ -22,6 +21,9 @@ from pipeline.harness.horizon_analysis import SUBJECT, Errors, truncated_arrays
 from pipeline.harness.metrics import window_errors
 from pipeline.runners.ynet_scoring import Sampling, load_for_scoring, predict_samplings
 from ynet.sampling import SamplingOptions
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.eval import EvalParams
 
 
 def stored_sampling(metadata: dict[str, Any]) -> Sampling:

@@ -26,13 +26,13 @@ import json
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 import torch
 from tqdm import tqdm
 
-from pipeline.config.segmentation import SegmentationParams
 from pipeline.data.augment import random_crop
 from pipeline.data.labels import read_label_map, reference_image_path
 from pipeline import checkpoints
@@ -41,6 +41,9 @@ from pipeline.device import (autocast, conv_layout, module_device,
 from pipeline.io import save_torch, write_bytes
 from pipeline.preemption import NEVER, Preemption
 from ynet.segmentation import CLASS_NAMES, PAD_CLASS, UNet, UNetConfig, dice_loss
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.segmentation import SegmentationParams
 
 MODEL_FORMAT = 1
 """The exported weights (`export_model`)."""

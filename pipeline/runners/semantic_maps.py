@@ -16,12 +16,12 @@ from __future__ import annotations
 import io
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 import torch
 
-from pipeline.config.semantic import SemanticParams
 from pipeline.data.labels import read_index, read_label_map, reference_image_path
 from pipeline.data.semantic_maps import (QUANT, comparison_figure, iou_summary, one_hot_map,
                                          predicted_labels, quantise, resize_probabilities)
@@ -29,6 +29,9 @@ from pipeline.device import autocast, module_device, to_device
 from pipeline.io import atomic_dir, write_json
 from pipeline.runners.segmentation import load_model, pad_to_multiple, scaled_size
 from ynet.segmentation import CLASS_NAMES, N_OUTPUTS, UNet, confusion_matrix
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.semantic import SemanticParams
 
 
 def predict_probabilities(model: UNet, image: np.ndarray, pad_multiple: int) -> np.ndarray:

@@ -50,15 +50,14 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
 from pipeline.benchmarks.short_term import ShortTermBenchmark, ShortTermSplits
 from pipeline.config.cws import CwsParams
-from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.config.ttst import TtstParams
-from pipeline.config.ynet import YnetSettings
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays, subset
 from pipeline.data.ynet_data import SceneWindows
@@ -73,6 +72,10 @@ from pipeline.runners.ynet_scoring import (Sampling, predict_samplings, qualitat
 from pipeline.runners.ynet_training import train
 from ynet.model import YNet
 from ynet.sampling import SamplingOptions
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.short_term_models import ShortTermModelsParams
+    from pipeline.config.ynet import YnetSettings
 
 
 # ---------------------------------------------------------------------------------------------

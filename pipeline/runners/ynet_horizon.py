@@ -17,11 +17,14 @@ scoring stage's file is {t_f, profile, trained, n_windows, rounds, waypoints, ma
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from pipeline.config.ynet_horizons import HorizonParams
 from pipeline.data.window_table import WindowArrays, to_arrays
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.ynet_horizons import HorizonParams
 
 TRAINING_HEADER = ("t_f", "profile", "trained", "waypoints")
 """Keys of the training stage's record that are not `ynet_training.train`'s summary."""

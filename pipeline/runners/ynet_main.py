@@ -18,18 +18,21 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 import torch
 
-from pipeline.config.ynet import YnetSettings
-from pipeline.config.ynet_seeds import YnetSeedsParams
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
 from pipeline.data.ynet_data import image_sizes
 from pipeline.device import CPU
 from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.ynet_training import scale_waypoints, train
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.ynet import YnetSettings
+    from pipeline.config.ynet_seeds import YnetSeedsParams
 
 REFERENCE_FUTURE = 30
 """Steps the configured waypoints are for (the release's t_f = 30 s at 1 FPS)."""

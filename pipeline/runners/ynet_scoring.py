@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -28,9 +29,6 @@ import torch
 from tqdm import tqdm
 
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config.cws import CwsParams
-from pipeline.config.eval import EvalParams
-from pipeline.config.ttst import TtstParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.data.labels import sdd_scene_image
 from pipeline.data.window_table import WindowArrays
@@ -42,6 +40,11 @@ from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
 from ynet.sampling import SamplingOptions, encode, predict, predict_encoded
 from ynet.segmentation import PAD_CLASS
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.config.cws import CwsParams
+    from pipeline.config.eval import EvalParams
+    from pipeline.config.ttst import TtstParams
 
 
 CUDA_KMEANS_CHECK_EVERY = 16
