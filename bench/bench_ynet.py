@@ -35,7 +35,8 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import common  # noqa: E402
-from pipeline.config.loading import load_profile, read_params  # noqa: E402
+from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
+from pipeline.config.ttst import TtstParams  # noqa: E402
 from pipeline.config.ynet import YnetSettings  # noqa: E402
 from ynet.config import upstream_max_distance  # noqa: E402
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, padded_size, scene_and_past  # noqa: E402
@@ -190,6 +191,8 @@ def main():
     cfg = YNetConfig(obs_len=5, pred_len=30, semantic_classes=6, waypoints=(14, 29))
     h, w, resize, batches = args.height, args.width, 0.25, [(1, False), (1, True), (8, True)]
     k_e, k_as = 20, (1, 5)
+    params_file = Path(__file__).resolve().parents[1] / "params.yaml"
+    temperature = load_section(TtstParams, "ttst", read_params(params_file)).temperature
     max_distance = upstream_max_distance(resize)
     if args.profile:
         settings = load_profile(YnetSettings, "ynet", {**read_params(), "profile": args.profile})
@@ -226,7 +229,7 @@ def main():
         print(f"Evaluation per test window, TTST + CWS, K_e {k_e} (input built, encoder, goal decoder, sampling, "
               "trajectory decoder)")
         for k_a in k_as:
-            options = SamplingOptions(K_e=k_e, K_a=k_a)
+            options = SamplingOptions(K_e=k_e, K_a=k_a, temperature=temperature)
             for bf16 in (False, True):
                 times = bench_eval(cfg, options, h, w, args.repeats, max_distance, bf16)
                 authors = AUTHORS["eval_ka1" if k_a == 1 else "eval_ka5"] if authors_apply else "n/a"
@@ -236,7 +239,8 @@ def main():
         print("  (the authors' evaluation figures are per window over the SDD test scenes, about 152,000 px on"
               f" average at resize 0.25; these are on the {h} x {w} = {h * w:,} px map)")
         print(f"\nBreakdown of one fp32 window, K_e {k_e}, K_a 1:")
-        parts = eval_breakdown(cfg, SamplingOptions(K_e=k_e, K_a=1), h, w, max_distance)
+        parts = eval_breakdown(cfg, SamplingOptions(K_e=k_e, K_a=1, temperature=temperature), h, w,
+                               max_distance)
         total = sum(parts.values())
         for name, seconds in parts.items():
             print(f"  {name:45s} {seconds:6.2f} s  {100 * seconds / total:4.0f}%")

@@ -66,7 +66,7 @@ def benches():
     evaluation = dataclasses.replace(load_profile(EvalParams, "eval", read_params(ROOT / "params.yaml")),
                                      batch_size=2, chunk_size=4)
     training = TrainingBench(settings, CPU, 3, image_hw=(256, 256))
-    scoring = ScoringBench(settings, evaluation, CPU, 3, SamplingOptions(K_e=4, K_a=1), (256, 256))
+    scoring = ScoringBench(settings, evaluation, CPU, 3, SamplingOptions(K_e=4, K_a=1, temperature=1.8), (256, 256))
     return training, training.measure(), scoring, scoring.measure()
 
 

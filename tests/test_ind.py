@@ -43,7 +43,6 @@ from pipeline.config.pecnet import PecnetConfig
 from pipeline.config.segmentation import SegmentationParams
 from pipeline.config.sgan import SganConfig
 from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.config.ttst import TtstParams
 from pipeline.config.windows import WindowParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.runners.segmentation import export_model
@@ -51,6 +50,7 @@ from pipeline.data.window_table import COLUMNS, to_arrays
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
 from ynet.segmentation import UNet, UNetConfig
+from tests.test_train_ynet import TTST
 
 REPO = Path(__file__).resolve().parents[1]
 FPS = 25
@@ -345,7 +345,7 @@ def tiny_settings(**changes) -> BenchmarkSettings:
                           threads=1),
         eval=EvalParams(k_e=3, k_a=1, rounds=1, ablation_rounds=1, ka_grid_k_e=[3], ka_grid_k_a=[2],
                         batch_size=2, chunk_size=2),
-        ttst=TtstParams(), cws=CwsParams(),
+        ttst=TTST, cws=CwsParams(),
         segmentation=SegmentationParams(base_channels=4, depth=2, epochs=2, crops_per_image=1,
                                         lr_drop_epoch=1, bf16=False, crop=32, pad_multiple=32),
         baseline_configs={

@@ -16,13 +16,13 @@ import torch
 
 from pipeline.config.cws import CwsParams
 from pipeline.config.eval import EvalParams
-from pipeline.config.ttst import TtstParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.runners.ynet_scoring import predict_scenes, qualitative, sampling_options
 from pipeline.runners.ynet_training import epoch_plan, train_epoch, validate
 from pipeline.data.window_table import WindowArrays
 from pipeline.data.ynet_data import group_by_scene
 from ynet.model import YNet
+from tests.test_train_ynet import TTST
 
 N_PAST, N_FUTURE = 3, 4
 SETTINGS = dict(resize=0.25, epochs=1, batch_size=2, learning_rate=1e-3, augmentations=2,
@@ -78,7 +78,7 @@ def test_prediction_with_every_sampler(setup, use_ttst, use_cws, k_a):
     model, _, settings, _, _ = setup
     test_scenes, arrays = scenes(3, settings.resize)
     model.eval()
-    options = sampling_options(3, k_a, TtstParams(), CwsParams(), use_ttst, use_cws)
+    options = sampling_options(3, k_a, TTST, CwsParams(), use_ttst, use_cws)
     params = EvalParams(k_e=3, k_a=k_a, batch_size=2, chunk_size=2)
     def run():
         return predict_scenes(model, test_scenes, settings, options, 0, params, len(arrays),
@@ -98,7 +98,7 @@ def test_qualitative_figure_arrays(setup):
     test_scenes, _ = scenes(2, settings.resize)
     model.eval()
     image = np.zeros((256, 256, 3), np.uint8)
-    options = sampling_options(3, 1, TtstParams(), CwsParams(), True, True)
+    options = sampling_options(3, 1, TTST, CwsParams(), True, True)
     with torch.device("meta"):
         arrays = qualitative(model, test_scenes[0], 0, settings, options, image, 0)
     assert np.isfinite(arrays["goal_heatmap"]).all() and arrays["predictions"].shape[-1] == 2

@@ -53,6 +53,15 @@ def assert_holds(loaded, cls, raw: dict) -> None:
         assert fields[str(key)] == plain(value), key
 
 
+def test_ttst_has_no_default_beside_params_yaml():
+    """params.yaml is the one place of the TTST settings: a key missing there is an error, not the
+    authors' value taken silently."""
+    for missing in ("temperature", "rel_threshold"):
+        section = {key: value for key, value in read_params()["ttst"].items() if key != missing}
+        with pytest.raises(ParamsError, match=rf"params.yaml:ttst: missing key\(s\) \['{missing}'\]"):
+            load_section(TtstParams, "ttst", {"ttst": section})
+
+
 @pytest.mark.parametrize("key, cls", SECTIONS.items())
 def test_params_yaml_sections_validate(key, cls):
     params = read_params()

@@ -27,8 +27,8 @@ def test_a_yaml12_float_reaches_a_float_param_as_a_number():
 
 
 @pytest.mark.parametrize("text, match", [
-    ("temperature: -1e9", "temperature must be > 0, got -1000000000.0"),
-    ("rel_threshold: 1E+1", r"rel_threshold must be in \[0, 1\), got 10.0"),
+    ("{temperature: -1e9, rel_threshold: 0.002}", "temperature must be > 0, got -1000000000.0"),
+    ("{temperature: 1.8, rel_threshold: 1E+1}", r"rel_threshold must be in \[0, 1\), got 10.0"),
 ])
 def test_out_of_range_it_meets_the_range_check(text, match):
     with pytest.raises(ParamsError, match=match):

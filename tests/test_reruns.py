@@ -7,7 +7,6 @@ import torch
 
 from pipeline.config.cws import CwsParams
 from pipeline.config.eval import EvalParams
-from pipeline.config.ttst import TtstParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import generator
@@ -23,7 +22,7 @@ from pipeline.runners.ynet_scoring import evaluation_sequence, load_model
 from pipeline.runners.ynet_training import train
 from tests.test_baselines import TINY_PECNET, TINY_SGAN, state_of, straight_tracks
 from tests.test_segmentation import tiny_params, tiny_scenes
-from tests.test_train_ynet import MAPS, N_PAST, SETTINGS, SIZES, arrays
+from tests.test_train_ynet import MAPS, N_PAST, SETTINGS, SIZES, TTST, arrays
 
 
 def without_times(node):
@@ -53,7 +52,7 @@ def test_ynet_trained_and_scored_twice_is_bit_identical(tmp_path):
                         N_PAST, folder / "last.pt", folder / "best.pt", folder / "history.csv")
         model, settings = load_model(folder / "best.pt")
         scenes = group_by_scene(test, MAPS, SIZES, settings.resize)
-        metrics = evaluation_sequence(model, scenes, settings, params, TtstParams(), CwsParams(), test.future)
+        metrics = evaluation_sequence(model, scenes, settings, params, TTST, CwsParams(), test.future)
         runs.append((without_times(summary), model.state_dict(), without_times(metrics)))
     (summary_a, weights_a, metrics_a), (summary_b, weights_b, metrics_b) = runs
     assert summary_a == summary_b and metrics_a == metrics_b

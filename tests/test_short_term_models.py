@@ -39,7 +39,6 @@ from pipeline.config.loading import load_profile, read_params
 from pipeline.config.report import ReportParams
 from pipeline.config.short_term_models import (ShortTermModelsParams, YnetTraining,
                                                YnetTrainingByBenchmark)
-from pipeline.config.ttst import TtstParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.data.semantic_maps import quantise
@@ -55,6 +54,7 @@ from pipeline.stages.short_term_tables import main as tables_main
 from pipeline.runners.ynet_training import train
 from pipeline.data.window_table import WindowArrays
 from tests.fixtures import write_maps_folder
+from tests.test_train_ynet import TTST
 from ynet.segmentation import CLASS_NAMES, PAD_CLASS
 
 REPO = Path(__file__).resolve().parents[1]
@@ -520,7 +520,7 @@ def test_a_cropped_qualitative_window_lies_where_scoring_puts_it(project):
     model, loaded, scenes = load_for_scoring(project / "checkpoints" / "eth_ynet" / "best.pt",
                                              bench.test, maps, sizes, threads=1)
     assert loaded.crop == 32
-    options = sampling_options(20, 1, TtstParams(), CwsParams(), True, False)
+    options = sampling_options(20, 1, TTST, CwsParams(), True, False)
     scene, row = scenes[0], 2
     _, origin = window_inputs(scene.semantic, scene.past[row:row + 1], loaded.max_distance,
                               loaded.crop, PAD_CLASS, loaded.crop_lead_steps)

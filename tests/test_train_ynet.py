@@ -46,6 +46,7 @@ SETTINGS = dict(resize=0.25, epochs=2, batch_size=2, learning_rate=1e-3, augment
                 kernel_size=7, sigma=1.5, waypoints=[1, 3], encoder_channels=[4, 4, 8, 8, 8],
                 decoder_channels=[8, 8, 8, 4, 4], seed=3, threads=1)
 MAPS = {"gates_0": np.full((6, 64, 64), 1 / 6, np.float32)}
+TTST = TtstParams(temperature=1.8, rel_threshold=0.002)  # the authors' long-term SDD values
 SIZES = {"gates_0": (256, 256)}
 
 
@@ -175,7 +176,7 @@ def trained_and_test_scenes(tmp_path):
 
 def test_evaluation_is_bit_identical_for_a_fixed_checkpoint(tmp_path):
     model, settings, test, scenes = trained_and_test_scenes(tmp_path)
-    options = sampling_options(3, 2, TtstParams(), CwsParams(), True, True)
+    options = sampling_options(3, 2, TTST, CwsParams(), True, True)
     params = EvalParams(k_e=3, k_a=2, rounds=2, batch_size=2)
     first = evaluate(model, scenes, settings, options, params, test.future, 2, "a")
     second = evaluate(model, scenes, settings, options, params, test.future, 2, "b")
@@ -200,9 +201,9 @@ def test_the_grid_cell_of_the_main_setting_equals_sampling_it_afresh(tmp_path):
     model, settings, test, scenes = trained_and_test_scenes(tmp_path)
     params = EvalParams(k_e=3, k_a=1, rounds=2, ablation_rounds=0, ka_grid_k_e=[3], ka_grid_k_a=[1, 2],
                         batch_size=2)
-    result = evaluation_sequence(model, scenes, settings, params, TtstParams(), CwsParams(), test.future)
+    result = evaluation_sequence(model, scenes, settings, params, TTST, CwsParams(), test.future)
     for cell in result["ka_grid"]:
-        options = sampling_options(cell["k_e"], cell["k_a"], TtstParams(), CwsParams(), True, True)
+        options = sampling_options(cell["k_e"], cell["k_a"], TTST, CwsParams(), True, True)
         assert cell == evaluate(model, scenes, settings, options, params, test.future, 1, "fresh")
     assert result["ka_grid"][0]["per_round"] == result["main"]["per_round"][:1]
 
@@ -212,13 +213,13 @@ def test_the_sequence_samples_each_setting_once_per_round():
     rounds, the ablation rows, and every grid cell but the main one, seeded round by round."""
     params = EvalParams(k_e=3, k_a=1, rounds=2, ablation_rounds=1, ka_grid_k_e=[2, 3],
                         ka_grid_k_a=[1, 2], seed=7)
-    scored = sequence_settings(params, TtstParams(), CwsParams())
+    scored = sequence_settings(params, TTST, CwsParams())
     assert [(s.name, s.rounds) for s in scored] == [
         ("main", 2), ("none", 1), ("cws", 1), ("K_e=2 K_a=1", 1), ("K_e=2 K_a=2", 1), ("K_e=3 K_a=2", 1)]
     assert [(s.options.use_ttst, s.options.use_cws) for s in scored[:3]] == [
         (True, True), (False, False), (False, True)]
     assert [s.seed for s in setting_samplings(scored, params.seed)] == [7, 8, 7, 7, 7, 7, 7]
-    assert [s.name for s in sequence_settings(params, TtstParams(), CwsParams(), extras=False)] == ["main"]
+    assert [s.name for s in sequence_settings(params, TTST, CwsParams(), extras=False)] == ["main"]
 
 
 def separate_pass(model, scenes, settings, options, seed, params, n_windows):
@@ -252,9 +253,9 @@ def test_samplings_of_one_pass_equal_separate_passes(tmp_path, bf16):
     maps, sizes = {**MAPS, "gates_1": MAPS["gates_0"][:, :48]}, {**SIZES, "gates_1": (192, 256)}
     scenes = group_by_scene(test, maps, sizes, settings.resize)
     params = EvalParams(k_e=3, k_a=2, batch_size=2, chunk_size=4, bf16=bf16)
-    samplings = [Sampling(sampling_options(3, 2, TtstParams(), CwsParams(), True, True), 0),
-                 Sampling(sampling_options(3, 2, TtstParams(), CwsParams(), False, False), 0),
-                 Sampling(sampling_options(2, 1, TtstParams(temperature=2.0), CwsParams(), True, True), 5)]
+    samplings = [Sampling(sampling_options(3, 2, TTST, CwsParams(), True, True), 0),
+                 Sampling(sampling_options(3, 2, TTST, CwsParams(), False, False), 0),
+                 Sampling(sampling_options(2, 1, dataclasses.replace(TTST, temperature=2.0), CwsParams(), True, True), 5)]
     sampled, shared_seconds = predict_samplings(model, scenes, settings, samplings, params, 5, "one")
     assert shared_seconds > 0
     for sampling, drawn in zip(samplings, sampled):
@@ -266,11 +267,11 @@ def test_samplings_of_one_pass_equal_separate_passes(tmp_path, bf16):
 def test_the_ablation_of_the_sequence_equals_evaluating_it_alone(tmp_path):
     model, settings, test, scenes = trained_and_test_scenes(tmp_path)
     params = EvalParams(k_e=3, k_a=1, rounds=2, ablation_rounds=2, ka_grid_k_e=[], batch_size=2)
-    result = evaluation_sequence(model, scenes, settings, params, TtstParams(), CwsParams(), test.future)
+    result = evaluation_sequence(model, scenes, settings, params, TTST, CwsParams(), test.future)
     assert "ka_grid" not in result and result["ablation"]["ttst_cws"] == result["main"]
     assert result["eval_seconds"] >= result["main_seconds"] > 0
     for name, use_ttst, use_cws in (("none", False, False), ("cws", False, True), ("ttst_cws", True, True)):
-        options = sampling_options(3, 1, TtstParams(), CwsParams(), use_ttst, use_cws)
+        options = sampling_options(3, 1, TTST, CwsParams(), use_ttst, use_cws)
         alone = evaluate(model, scenes, settings, options, params, test.future, 2, name)
         assert result["ablation"][name] == alone
 

@@ -247,10 +247,12 @@ def test_sample_waypoints_shapes_and_order(use_ttst, use_cws, K_a):
 
 def test_options_checks():
     with pytest.raises(ValueError):
-        SamplingOptions(K_e=0)
+        SamplingOptions(K_e=0, temperature=1.8)
     with pytest.raises(ValueError, match="sigma_factor"):
-        SamplingOptions(K_a=7, sigma_factor=6.0)
-    assert SamplingOptions(K_e=20, K_a=5).K == 100
+        SamplingOptions(K_a=7, sigma_factor=6.0, temperature=1.8)
+    with pytest.raises(TypeError, match="temperature"):
+        SamplingOptions(K_e=20)  # no default: the pipeline's is params.yaml's ttst.temperature
+    assert SamplingOptions(K_e=20, K_a=5, temperature=1.8).K == 100
 
 
 def tiny_model_and_windows(b: int) -> tuple[YNet, torch.Tensor, torch.Tensor]:
@@ -307,7 +309,7 @@ def test_ttst_masses_sum_to_one_and_favour_the_heavier_mode():
     assert torch.equal(goals, ttst_goals(logits, options, gen(0)))  # the same draws
     assert masses.shape == (1, 5) and (masses >= 0).all()
     assert_close(masses.sum(-1), torch.ones(1))
-    single, mass = ttst(logits, SamplingOptions(K_e=1), gen(0))
+    single, mass = ttst(logits, SamplingOptions(K_e=1, temperature=1.8), gen(0))
     assert single.shape == (1, 1, 2) and mass.tolist() == [[1.0]]
 
 

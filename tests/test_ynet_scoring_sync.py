@@ -15,13 +15,13 @@ import torch
 
 from pipeline.config.cws import CwsParams
 from pipeline.config.eval import EvalParams
-from pipeline.config.ttst import TtstParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.runners import ynet_scoring
 from pipeline.runners.ynet_scoring import (CUDA_KMEANS_CHECK_EVERY, Sampling, kmeans_check_every,
                                            predict_samplings, sampling_options)
 from tests.sync_audit import SyncAudit
 from tests.test_no_fixed_device import N_FUTURE, N_PAST, SETTINGS, scenes
+from tests.test_train_ynet import TTST
 from tests.test_ynet_sampling import gen, tiny_model_and_windows, two_mode_logits
 from ynet import sampling
 from ynet.model import YNet
@@ -274,7 +274,7 @@ def runner(request):
     settings = YnetSettings(**SETTINGS, crop=request.param, crop_lead_steps=1.0)
     model = YNet(settings.model_config(N_PAST, N_FUTURE)).eval()
     test_scenes, arrays = scenes(5, settings.resize)
-    samplings = [Sampling(sampling_options(3, k_a, TtstParams(), CwsParams(), True, True), seed)
+    samplings = [Sampling(sampling_options(3, k_a, TTST, CwsParams(), True, True), seed)
                  for k_a in (1, 2) for seed in (0, 1)]
     return model, test_scenes, settings, samplings, EvalParams(k_e=3, batch_size=2), len(arrays)
 

@@ -9,7 +9,7 @@ sample `k` is goal `k % K_e` with aleatoric path `k // K_e` (as the authors orde
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import torch
 import torch.nn.functional as F
@@ -20,13 +20,14 @@ from ynet.model import YNet
 
 @dataclass(frozen=True)
 class SamplingOptions:
-    """How `predict` draws goals and waypoints. Defaults: the authors' long-term SDD config."""
+    """How `predict` draws goals and waypoints. Defaults: the authors' long-term SDD config; the
+    temperature has none (the pipeline's is params.yaml `ttst.temperature`): give it by name."""
 
     K_e: int = 20
     """Goals per window (epistemic samples)."""
     K_a: int = 1
     """Paths per goal (aleatoric samples): sets of waypoints drawn for each goal."""
-    temperature: float = 1.8
+    temperature: float = field(kw_only=True)
     """Goal/waypoint maps are sigmoid(logits / temperature) before sampling; higher = more diverse."""
     rel_threshold: float = 0.002
     """TTST never samples goal pixels below rel_threshold * max (outlier suppression)."""

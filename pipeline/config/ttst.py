@@ -1,4 +1,5 @@
-"""Section `ttst` of params.yaml: Y-net's Test-Time Sampling Trick (`ynet.sampling`)."""
+"""Section `ttst` of params.yaml: Y-net's Test-Time Sampling Trick (`ynet.sampling`). No defaults:
+params.yaml holds the values (the authors' long-term SDD ones), in one place."""
 
 from __future__ import annotations
 
@@ -7,9 +8,9 @@ from dataclasses import dataclass
 
 @dataclass
 class TtstParams:
-    temperature: float = 1.8
+    temperature: float
     """Goal and waypoint maps are sigmoid(logits / temperature) before sampling."""
-    rel_threshold: float = 0.002
+    rel_threshold: float
     """Pixels below rel_threshold * max are never sampled."""
 
     def __post_init__(self):
