@@ -3,7 +3,7 @@
 Locations are tried in the order `params.yaml` lists them; a location "has" a source when every
 file of the source's manifest can be read there and hashes to the manifest's SHA-256. A location is
 a mirror (`<base>/<source>/<rel>`, as `../shared/data`) or an upstream mapping that says where each
-manifest path lies in the source's public repositories (`pipeline.config.UpstreamLocation`). Either
+manifest path lies in the source's public repositories (`pipeline.config.fetch.UpstreamLocation`). Either
 way nothing is trusted: a file that changed upstream fails its checksum like a corrupted one. Files
 are staged in a temporary folder beside the output and renamed into place only when all of them
 verified, so a failed fetch never leaves a half-written `data/raw/<source>/`.

@@ -4,7 +4,7 @@ Batches hold one scene only (scene images differ in size), so the semantic map i
 scene and shared by every window of the batch. Coordinates follow `ynet.heatmaps`: (x, y) = (column,
 row) in pixels of the resized map; windows arrive in original pixels and are multiplied by `resize`.
 The 8x augmentation (rotations by 0/90/180/270 degrees, each with and without a horizontal flip:
-`pipeline.config.AUGMENTATIONS`, beside the setting that counts them) transforms the map and the
+`pipeline.config.ynet.AUGMENTATIONS`, beside the setting that counts them) transforms the map and the
 coordinates together. A scene's size is its video's reference image's (`image_sizes`).
 """
 

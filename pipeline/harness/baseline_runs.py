@@ -13,8 +13,8 @@ training. `score_to_file` is what the long-term baseline stages do: the metrics 
 every test prediction (`pipeline.harness.predictions`), or only the metrics for the extra training
 seeds (`evaluate_baseline_seed`, `evaluate_rpecnet_seed`). Checkpoints:
 `pipeline.harness.baselines.common`.
-Each model's settings are its config dataclass (`pipeline.config`: sections `sgan` / `pecnet`, one
-per profile), chosen by `model_config`.
+Each model's settings are its config dataclass (`pipeline.config.sgan` / `.pecnet`: sections `sgan`
+/ `pecnet`, one per profile), chosen by `model_config`.
 """
 
 from __future__ import annotations

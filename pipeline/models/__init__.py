@@ -76,7 +76,7 @@ class ModelEntry:
     name), `class` the class there written to the contract of `pipeline.models`, `label` and
     `colour` (#rrggbb) how the report shows it, `settings` the mapping its constructor takes
     (`{}` for none). Kept here, not in `pipeline.config` with the other sections: it is this
-    contract's, and every stage imports `pipeline.config`."""
+    contract's."""
 
     name: str
     class_name: str

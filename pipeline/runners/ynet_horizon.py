@@ -5,7 +5,7 @@ The t_f = 30 s point is the main Y-net (`train_ynet` / `evaluate_ynet` on the re
 which equal `data/horizon_windows/tf30.parquet`); the horizon stages cover the other horizons on
 the horizon tables. Waypoints are scaled with the horizon as `train_ynet` does. Which horizons are
 trained, for how many epochs, and how many evaluation rounds come from `ynet_horizons.<profile>`
-(`pipeline.config.HorizonParams`): a horizon outside that list still gets a metrics file saying why
+(`pipeline.config.ynet_horizons.HorizonParams`): a horizon outside that list still gets a metrics file saying why
 it was not run, so the report explains the gap instead of leaving it blank.
 
 The training stage's metrics file is the record below with `trained: true`, `waypoints` and the
