@@ -207,13 +207,13 @@ def point_counts(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def nearest_one_hot(rows: torch.Tensor, centres: torch.Tensor, clusters: torch.Tensor,
-                    dtype: torch.dtype) -> torch.Tensor:
-    """Which centre each point is nearest to (the first on ties), one-hot: points as rows
-    (N, 1, U, 2), centres (N, k, 2) and `clusters` arange(k)[:, None] (k, 1), shaped once by a
-    caller that loops -> (N, k, U) of `dtype`. The squared distances are `nearest_centre`'s,
-    (px - cx)^2 + (py - cy)^2 in float32, and so is the assignment."""
+                    out: torch.Tensor) -> torch.Tensor:
+    """Which centre each point is nearest to (the first on ties), one-hot, written into `out`
+    (N, k, U) of any dtype: points as rows (N, 1, U, 2), centres (N, k, 2) and `clusters`
+    arange(k)[:, None] (k, 1), shaped once by a caller that loops. The squared distances are
+    `nearest_centre`'s, (px - cx)^2 + (py - cy)^2 in float32, and so is the assignment."""
     squared = (rows - centres.unsqueeze(2)).square_().sum(-1)  # (N, k, U)
-    return (squared.argmin(1, keepdim=True) == clusters).to(dtype)
+    return torch.eq(squared.argmin(1, keepdim=True), clusters, out=out)
 
 
 def nearest_sums(points: torch.Tensor, centres: torch.Tensor, masses: torch.Tensor) -> torch.Tensor:
@@ -225,8 +225,10 @@ def nearest_sums(points: torch.Tensor, centres: torch.Tensor, masses: torch.Tens
     touches) keeps sums of whole numbers below 2^53 exact, so they equal a float32
     `scatter_add_`'s wherever that one is exact (sums below 2^24).
     """
-    clusters = torch.arange(centres.shape[1], device=points.device)[:, None]  # (k, 1)
-    return torch.bmm(nearest_one_hot(points.unsqueeze(1), centres, clusters, masses.dtype), masses)
+    (n, k, _), u = centres.shape, points.shape[1]
+    clusters = torch.arange(k, device=points.device)[:, None]  # (k, 1)
+    one_hot = masses.new_empty(n, k, u)  # (N, k, U)
+    return torch.bmm(nearest_one_hot(points.unsqueeze(1), centres, clusters, one_hot), masses)
 
 
 def random_points(points: torch.Tensor, k: int, generator: torch.Generator) -> torch.Tensor:
@@ -310,6 +312,8 @@ def sync_light_lloyd(points: torch.Tensor, unique: torch.Tensor, weights: torch.
     masses = torch.cat([unique * weights[..., None], weights[..., None]], dim=-1).double()  # (N, U, 3)
     rows = unique.unsqueeze(1)  # (N, 1, U, 2)
     clusters = torch.arange(k, device=points.device)[:, None]  # (k, 1)
+    one_hot = masses.new_empty(n, k, unique.shape[1])  # (N, k, U), rewritten every iteration
+    means = centres.new_empty(n, k, 2)  # (N, k, 2), likewise
     stopped = torch.zeros(n, dtype=torch.bool, device=points.device)  # (N,) frozen for good
     for start in range(0, max_iter, check_every):
         steps = min(check_every, max_iter - start)
@@ -317,9 +321,11 @@ def sync_light_lloyd(points: torch.Tensor, unique: torch.Tensor, weights: torch.
         trail = [centres]  # the centres before the block, then after each iteration
         for restart in restarts.unbind(1):  # (N, k, 2) each
             # (N, k, 3): each cluster's sums of x and y and its count (`nearest_sums`)
-            summed = torch.bmm(nearest_one_hot(rows, trail[-1], clusters, masses.dtype), masses)
-            counts = summed[..., 2:]  # (N, k, 1)
-            means = (summed[..., :2] / counts).float()  # exact: float64 has room for float32's rounding
+            summed = torch.bmm(nearest_one_hot(rows, trail[-1], clusters, one_hot), masses)
+            sums, counts = summed.split([2, 1], dim=-1)  # (N, k, 2), (N, k, 1)
+            # divided in float64, rounded once to float32: float32's own division of the same
+            # whole numbers (float64 has room for float32's rounding)
+            torch.div(sums, counts, out=means)
             trail.append(torch.where(counts == 0, restart, means))  # (N, k, 2)
         moves = torch.stack(trail, 1).diff(dim=1)  # (N, T, k, 2)
         settled = moves.square().sum(-1).sqrt().sum(-1).square() < tol  # (N, T)
@@ -590,7 +596,13 @@ def predict_encoded(
             maps = maps.unflatten(1, chunk.shape[1:3])  # (B, k, n_w, H, W)
             with torch.autocast(samples.device.type, dtype=torch.bfloat16, enabled=bf16):
                 logits = model.predict_trajectory(encoded.features, maps)  # (B, k, n_f, H, W)
-            steps.append(softargmax(logits.float()))  # (B, k, n_f, 2)
+            # Each chunk's large tensors are let go as soon as they are used, not when the next
+            # chunk replaces them: the maps before the softmax, the bfloat16 logits before their
+            # float32 copy's softmax, that copy before the next chunk's decoder.
+            del maps
+            logits = logits.float()
+            steps.append(softargmax(logits))  # (B, k, n_f, 2)
+            del logits
         trajectory = torch.cat(steps, dim=1)  # (B, K, n_f, 2)
     return Prediction(trajectory=trajectory, goals=samples[:, :, -1], waypoints=samples,
                       weights=weights)
