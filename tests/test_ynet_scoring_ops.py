@@ -8,8 +8,8 @@ here with those two choices made as on CUDA. Counted with `tests/sync_audit.py` 
 every operator, views included). The scene is the size `bench/gpu_check.py` scores (32 windows,
 about an SDD test scene's mean of 35), with the `paper` profile's scoring (K_e 20, K_a 1, TTST +
 CWS, batch 4, chunk 8) and its model's levels and waypoints; the channels are few, which changes no
-count. Before issue 62 this path dispatched about 1,280 ops a window (8 windows at batch 4, the
-`paper` model: docs/experiments/2026-11-28-gpu-scoring-cpu-path.md).
+count. Before issue 62 this path dispatched 1,181.5 ops a window on this very scene, 1,296 of them
+`scatter_add_` (docs/experiments/2026-11-28-gpu-scoring-cpu-path.md).
 """
 
 import dataclasses
