@@ -203,7 +203,8 @@ def predict_samplings(model: YNet, scenes: list[SceneWindows], settings: YnetSet
                 drawn = []  # each sampling's goals (G, K_e, 2) and masses (G, K_e) or None
                 for i, sampling in enumerate(samplings):
                     began = time.perf_counter()
-                    drawn.append(draw_goals(goal_logits, sampling.options, draws[i], check_every))
+                    with torch.inference_mode():
+                        drawn.append(draw_goals(goal_logits, sampling.options, draws[i], check_every))
                     seconds[i] += time.perf_counter() - began
                 at = 0
                 for batch in batches:
