@@ -64,8 +64,8 @@ from pipeline.data.ynet_data import SceneWindows, group_by_scene  # noqa: E402
 from pipeline.device import (SCORING, TRAINING, conv_layout, describe, select_device,  # noqa: E402
                              synchronize)
 from pipeline.runners.ynet_scoring import predict_scenes, sampling_options  # noqa: E402
-from pipeline.runners.ynet_training import (BatchPart, epoch_plan, optimizer_groups,  # noqa: E402
-                                            train_epoch)
+from pipeline.runners.ynet_training import (BatchPart, epoch_plan, train_epoch,  # noqa: E402
+                                            ynet_optimizer)
 from ynet.heatmaps import padded_size  # noqa: E402
 from ynet.loss import ynet_loss  # noqa: E402
 from ynet.model import YNet, YNetConfig  # noqa: E402
@@ -76,18 +76,21 @@ SMOKE_IMAGE_HW = (256, 256)
 N_PAST, N_FUTURE = 5, 30
 
 
-def synthetic_windows(n: int, seed: int, image_hw: tuple[int, int] = IMAGE_HW
+def synthetic_windows(n: int, seed: int, image_hw: tuple[int, int] = IMAGE_HW,
+                      steps: tuple[int, int] = (N_PAST, N_FUTURE), classes: int = 6
                       ) -> tuple[WindowArrays, dict, dict]:
-    """`n` straight walks over one scene with a random 6-class map (original pixels)."""
+    """`n` straight walks of `steps` (past, future) steps over one scene with a random map of
+    `classes` classes (original pixels)."""
     rng = np.random.default_rng(seed)
     height, width = image_hw
+    n_past, n_future = steps
     start = rng.uniform([0.1 * width, 0.1 * height], [0.6 * width, 0.5 * height], size=(n, 1, 2))
     velocity = rng.uniform(-12, 18, size=(n, 1, 2)) * width / IMAGE_HW[1]
-    xy = start + np.arange(N_PAST + N_FUTURE)[None, :, None] * velocity
-    arrays = WindowArrays(past=xy[:, :N_PAST], future=xy[:, N_PAST:], window_id=np.arange(n),
+    xy = start + np.arange(n_past + n_future)[None, :, None] * velocity
+    arrays = WindowArrays(past=xy[:, :n_past], future=xy[:, n_past:], window_id=np.arange(n),
                           scene_id=np.array(["bench_0"] * n), track_id=np.arange(n),
                           first_frame=np.zeros(n), split=np.array(["train"] * n))
-    probs = rng.dirichlet(np.ones(6), size=(height // 4, width // 4)).astype(np.float32)
+    probs = rng.dirichlet(np.ones(classes), size=(height // 4, width // 4)).astype(np.float32)
     return arrays, {"bench_0": probs.transpose(2, 0, 1)}, {"bench_0": image_hw}
 
 
@@ -182,15 +185,15 @@ class TrainingBench:
     (every batch full), ready to time; `run(plan)` is training's own `train_epoch`."""
 
     def __init__(self, settings: YnetSettings, device: torch.device, steps: int,
-                 image_hw: tuple[int, int] = IMAGE_HW):
+                 image_hw: tuple[int, int] = IMAGE_HW, window_steps: tuple[int, int] = (N_PAST, N_FUTURE)):
         self.settings, self.device = settings, device
-        arrays, maps, sizes = synthetic_windows(settings.batch_size * steps, 0, image_hw)
+        arrays, maps, sizes = synthetic_windows(settings.batch_size * steps, 0, image_hw, window_steps,
+                                                settings.semantic_classes)
         self.scenes = group_by_scene(arrays, maps, sizes, settings.resize, device)
         torch.manual_seed(settings.seed)
-        self.config = settings.model_config(N_PAST, N_FUTURE)
+        self.config = settings.model_config(*window_steps)
         self.model = conv_layout(YNet(self.config), device)
-        self.optimizer = torch.optim.Adam(optimizer_groups(self.model, settings),
-                                          lr=settings.learning_rate)
+        self.optimizer = ynet_optimizer(self.model, settings, device)
         self.plan = epoch_plan(self.scenes, settings, np.random.default_rng(0))[:steps]
         self.shapes = [step_shape(parts, self.scenes, settings) for parts in self.plan]
 
@@ -224,11 +227,13 @@ class ScoringBench:
     """A model in eval mode (as `load_model` lays it out) and `windows` synthetic test windows."""
 
     def __init__(self, settings: YnetSettings, evaluation: EvalParams, device: torch.device,
-                 windows: int, options: SamplingOptions, image_hw: tuple[int, int] = IMAGE_HW):
+                 windows: int, options: SamplingOptions, image_hw: tuple[int, int] = IMAGE_HW,
+                 window_steps: tuple[int, int] = (N_PAST, N_FUTURE)):
         self.settings, self.evaluation, self.options, self.device = settings, evaluation, options, device
-        arrays, maps, sizes = synthetic_windows(windows, 1, image_hw)
+        arrays, maps, sizes = synthetic_windows(windows, 1, image_hw, window_steps,
+                                                settings.semantic_classes)
         self.scene = group_by_scene(arrays, maps, sizes, settings.resize, device)[0]
-        self.config = settings.model_config(N_PAST, N_FUTURE)
+        self.config = settings.model_config(*window_steps)
         self.model = conv_layout(YNet(self.config).eval(), device)
         self.windows = windows
         # the first `rows` windows of each size `run` takes, cut here: cutting is no scoring work
@@ -236,10 +241,11 @@ class ScoringBench:
         self.first = {rows: self.scene.subset(np.arange(rows))
                       for rows in {windows, *warmup_rows(windows, evaluation.batch_size)}}
 
-    def run(self, rows: int, desc: str = "bench") -> None:
-        """Score the first `rows` windows (`rows`: the windows, or a size of `warmup_rows`)."""
-        predict_scenes(self.model, [self.first[rows]], self.settings, self.options, 0,
-                       self.evaluation, self.windows, desc)
+    def run(self, rows: int, desc: str = "bench") -> tuple[np.ndarray, np.ndarray]:
+        """Score the first `rows` windows (`rows`: the windows, or a size of `warmup_rows`) with
+        seed 0: (paths, goals) as `predict_scenes` gives them."""
+        return predict_scenes(self.model, [self.first[rows]], self.settings, self.options, 0,
+                              self.evaluation, self.windows, desc)
 
     def measure(self) -> dict:
         """Windows/s over all windows after a warm-up on their batch shapes; FLOPs, TFLOP/s, memory."""

@@ -44,7 +44,7 @@ LABEL_INDEX = "labels/index.json"
 
 # The keys of the measured rates a projection reads (`project`'s `rates`).
 YNET_SDD = "ynet_sdd"  # paper Y-net training samples/s on an SDD-sized map (bench_profiles)
-YNET_ETHUCY = "ynet_ethucy"  # not measured by any bench: ETH/UCY maps at resize 0.667
+YNET_ETHUCY = "ynet_ethucy"  # ETH/UCY-sized maps at resize 0.667 (bench/gpu_check.py)
 SEGMENTATION = "segmentation"  # paper U-Net training crops/s (bench/stage_rates.py)
 SGAN, PECNET = "sgan", "pecnet"  # paper training: train windows x epochs per second
 BASELINE_STEPS = (N_PAST, N_FUTURE)  # the baselines' rates are timed on windows of these steps
@@ -180,7 +180,8 @@ def paper_stages(params: dict, counts: dict[str, Count]) -> list[StagePlan]:
                   f"at the long-term model's rate (SDD maps at resize {resize.get('sdd')} against "
                   f"{ynet.resize}; n_f {windows.n_future}, one waypoint)"),
         StagePlan("train_short_term_ynet (ETH/UCY)", samples, YNET_ETHUCY, runs["ethucy"],
-                  f"no bench times Y-net on ETH/UCY maps (resize {resize.get('ethucy')})"),
+                  f"ETH/UCY maps at resize {resize.get('ethucy')}: bench/gpu_check.py's "
+                  "ETH/UCY-sized synthetic map"),
     ]
     segmentation = paper(SegmentationParams, "segmentation", params)
     stages.append(StagePlan("segmentation", "crops", SEGMENTATION,

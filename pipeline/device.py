@@ -7,7 +7,8 @@ the helpers below, so no other module needs to know whether it runs on a CPU or 
   ask for exactly that and fail with a clear message when it is not there.
 - On CUDA it turns on TF32 matmuls and convolutions, and what its `purpose` wants: `SCORING`
   deterministic algorithms where CUDA has them (`torch.use_deterministic_algorithms(warn_only=True)`;
-  see `NONDETERMINISTIC_ON_CUDA`), so scoring a checkpoint repeats; `TRAINING` cuDNN's autotuner and
+  see `NONDETERMINISTIC_ON_CUDA`; uninitialised memory left unfilled), so scoring a checkpoint
+  repeats; `TRAINING` cuDNN's autotuner and
   its fastest algorithms, deterministic or not, since a CUDA training run repeats only up to
   rounding anyway (the upsampling's backward) and deterministic cuDNN gives up the fast
   weight-gradient kernels.
@@ -17,6 +18,7 @@ the helpers below, so no other module needs to know whether it runs on a CPU or 
   effect only on a CPU with bf16 hardware (`use_bf16`), float32 elsewhere.
 - `to_device` pins host memory and copies without blocking on CUDA; on the CPU it returns the
   tensor itself.
+- `adam_options(device)`: fused Adam on CUDA, the plain one on the CPU.
 - `generator(device, seed)`: random draws are made on the device their tensors live on.
 - `rng_states` / `restore_rng_states`: torch's global RNG states (and CUDA's) in a checkpoint.
 
@@ -86,6 +88,11 @@ def select_device(name: str, *, purpose: str) -> torch.device:
         torch.backends.cudnn.benchmark = not repeatable  # autotuned per input shape
         torch.backends.cudnn.deterministic = repeatable
         torch.use_deterministic_algorithms(repeatable, warn_only=True)
+        # With deterministic algorithms on, torch also fills every uninitialised tensor with NaN
+        # (one kernel each: about 51,000 of scoring's 163,000 launches for 32 windows on an H200
+        # before issue 62). No op of ours reads memory it has not written, so the results do not
+        # depend on that fill; `bench/gpu_check.py` scores twice and compares to show it.
+        torch.utils.deterministic.fill_uninitialized_memory = False
     return device
 
 
@@ -126,13 +133,17 @@ def use_bf16(device: torch.device, requested: bool) -> bool:
     return requested
 
 
+AUTOCAST_DTYPE = torch.bfloat16
+"""What `autocast` runs convolutions and matmuls in."""
+
+
 def autocast(device: torch.device, cpu_bf16: bool = False):
     """bfloat16 autocast on CUDA; on the CPU only when `cpu_bf16` (a profile's explicit choice)
     and the CPU has bf16 hardware (`use_bf16`)."""
     if device.type == "cuda":
-        return torch.autocast("cuda", dtype=torch.bfloat16)
+        return torch.autocast("cuda", dtype=AUTOCAST_DTYPE)
     if use_bf16(device, cpu_bf16):
-        return torch.autocast("cpu", dtype=torch.bfloat16)
+        return torch.autocast("cpu", dtype=AUTOCAST_DTYPE)
     return contextlib.nullcontext()
 
 
@@ -171,6 +182,14 @@ def restore_rng_states(states: dict[str, torch.Tensor] | None, device: torch.dev
     torch.set_rng_state(states["torch"].cpu())
     if device.type == "cuda" and "cuda" in states:
         torch.cuda.set_rng_state(states["cuda"].cpu(), device)
+
+
+def adam_options(device: torch.device) -> dict:
+    """Keyword arguments of `torch.optim.Adam` for parameters on `device`: fused on CUDA (one
+    kernel for the whole step instead of several per parameter: Adam's step was 7.7 % of a `paper`
+    Y-net training step's kernel time on an H200, unfused); none on the CPU, whose optimiser, and
+    so its numbers and checkpoints, stay as they were."""
+    return {"fused": True} if device.type == "cuda" else {}
 
 
 def conv_layout(module: torch.nn.Module, device: torch.device) -> torch.nn.Module:

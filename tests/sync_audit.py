@@ -13,6 +13,10 @@ list or numpy indices where our code or torch's non-Python code calls them, not 
 function written in Python (a torch function mode is off while its function runs). A `.to(device)` is not judged (on the CPU it
 cannot tell a copy to the host from one to the device).
 
+`slow` lists every dispatched operator whose CUDA kernel, under scoring's
+`torch.use_deterministic_algorithms(True)`, takes a slow deterministic path (a sort before an
+accumulation) or has no deterministic version at all (`slow_when_deterministic`).
+
 Some tensors stay on the host in a CUDA run too (Adam's step counts, unless `capturable`):
 reading them, or what is computed from them alone, costs the GPU nothing. Pass them as
 `host_tensors` (`host_state`).
@@ -36,6 +40,35 @@ VALUE_SIZED = {torch.ops.aten.nonzero.default, torch.ops.aten.masked_select.defa
 INDEXING = {torch.ops.aten.index.Tensor, torch.ops.aten.index_put_.default,
             torch.ops.aten.index_put.default, torch.ops.aten._index_put_impl_.default}
 TO_HOST = {torch.Tensor.cpu: "cpu", torch.Tensor.numpy: "numpy", torch.Tensor.tolist: "tolist"}
+
+# torch.use_deterministic_algorithms' list (PyTorch 2.x): on CUDA in deterministic mode these
+# accumulate or write through a sort (`index_put` with or without accumulate, which `scatter_add_`,
+# `scatter` of a tensor, `index_add` and `index_copy` end in) or raise / warn for lack of a
+# deterministic kernel (`put_`, `histc`, `index_reduce`, `median` with indices, `kthvalue`).
+ops = torch.ops.aten
+SLOW_WHEN_DETERMINISTIC = {
+    ops.index_put.default, ops.index_put_.default, ops._index_put_impl_.default,
+    ops.scatter_add.default, ops.scatter_add_.default, ops.scatter.src, ops.scatter_.src,
+    ops.scatter.reduce, ops.scatter_.reduce, ops.scatter_reduce.two, ops.scatter_reduce_.two,
+    ops.index_add.default, ops.index_add_.default, ops.index_copy.default, ops.index_copy_.default,
+    ops.index_reduce.default, ops.index_reduce_.default, ops.put.default, ops.put_.default,
+    ops.histc.default, ops.median.dim, ops.nanmedian.dim, ops.kthvalue.default,
+}
+del ops
+
+
+def slow_when_deterministic(func, args, kwargs) -> bool:
+    """Whether `func(*args, **kwargs)` would take a slow deterministic path, or have none, on CUDA
+    under `torch.use_deterministic_algorithms(True)`: the ops of `SLOW_WHEN_DETERMINISTIC`, a
+    `bincount` with weights and a floating-point `cumsum`."""
+    if func in SLOW_WHEN_DETERMINISTIC:
+        return True
+    if func is torch.ops.aten.bincount.default:
+        return (args[1] if len(args) > 1 else kwargs.get("weights")) is not None
+    if func in (torch.ops.aten.cumsum.default, torch.ops.aten.cumsum_.default):
+        dtype = kwargs.get("dtype") or args[0].dtype
+        return dtype.is_floating_point or dtype.is_complex
+    return False
 
 
 def host_state(optimizer: torch.optim.Optimizer) -> list[torch.Tensor]:
@@ -83,6 +116,8 @@ class _Operators(TorchDispatchMode):
         inputs = [t for t in tree_leaves((args, kwargs)) if isinstance(t, torch.Tensor)]
         from_host = bool(inputs) and all(audit.on_host(t) for t in inputs)
         audit.ops[str(func)] += 1
+        if slow_when_deterministic(func, args, kwargs):
+            audit.slow.append(str(func))
         if func in SCALAR_READS and not from_host:
             audit.events.append(("scalar read", str(args[0].dtype)))
         elif func in VALUE_SIZED:
@@ -97,12 +132,14 @@ class _Operators(TorchDispatchMode):
 
 class SyncAudit:
     """`with SyncAudit() as audit: ...`, then `audit.events`: (what, detail) for every operation
-    that would wait for a GPU; `audit.ops`: how often each operator was dispatched."""
+    that would wait for a GPU; `audit.ops`: how often each operator was dispatched (views
+    included); `audit.slow`: the operators dispatched that are slow on CUDA in deterministic mode."""
 
     def __init__(self, host_tensors=()):
         self.host = {id(t): t for t in host_tensors}  # held, so that no other tensor gets the id
         self.events: list[tuple[str, object]] = []
         self.ops: Counter[str] = Counter()
+        self.slow: list[str] = []
         self._modes = (_Functions(self), _Operators(self))
 
     def on_host(self, tensor: torch.Tensor) -> bool:

@@ -7,10 +7,13 @@ import pytest
 import torch
 
 import pipeline.device
-from pipeline.device import (SCORING, TRAINING, autocast, conv_layout, cpu_has_bf16, generator,
-                             resolve_device, select_device, to_device, use_bf16)
 from pipeline.config.loading import ParamsError, load_section
 from pipeline.config.runtime import RuntimeParams, parse_device_name
+from pipeline.config.ynet import YnetSettings
+from pipeline.device import (SCORING, TRAINING, adam_options, autocast, conv_layout, cpu_has_bf16,
+                             generator, resolve_device, select_device, to_device, use_bf16)
+from pipeline.runners.ynet_training import optimizer_groups, ynet_optimizer
+from ynet.model import YNet
 
 
 @pytest.mark.parametrize("name, parsed", [("auto", ("auto", None)), ("cpu", ("cpu", None)),
@@ -52,7 +55,8 @@ def torch_settings() -> dict:
             "warn only": torch.is_deterministic_algorithms_warn_only_enabled(),
             "matmul tf32": torch.backends.cuda.matmul.allow_tf32,
             "cudnn tf32": torch.backends.cudnn.allow_tf32,
-            "cublas workspace": os.environ.get("CUBLAS_WORKSPACE_CONFIG")}
+            "cublas workspace": os.environ.get("CUBLAS_WORKSPACE_CONFIG"),
+            "fill uninitialized": torch.utils.deterministic.fill_uninitialized_memory}
 
 
 @pytest.fixture
@@ -66,6 +70,7 @@ def restored_settings(monkeypatch):
     torch.use_deterministic_algorithms(before["deterministic algorithms"], warn_only=before["warn only"])
     torch.backends.cuda.matmul.allow_tf32 = before["matmul tf32"]
     torch.backends.cudnn.allow_tf32 = before["cudnn tf32"]
+    torch.utils.deterministic.fill_uninitialized_memory = before["fill uninitialized"]
 
 
 def test_training_autotunes_and_scoring_stays_deterministic_on_cuda(monkeypatch, restored_settings):
@@ -80,12 +85,12 @@ def test_training_autotunes_and_scoring_stays_deterministic_on_cuda(monkeypatch,
     del training["warn only"]  # meaningless with deterministic algorithms off
     assert training == {"benchmark": True, "cudnn deterministic": False,
                         "deterministic algorithms": False, "matmul tf32": True, "cudnn tf32": True,
-                        "cublas workspace": None}
+                        "cublas workspace": None, "fill uninitialized": False}
     select_device("cuda", purpose=SCORING)
     assert torch_settings() == {"benchmark": False, "cudnn deterministic": True,
                                 "deterministic algorithms": True, "warn only": True,
                                 "matmul tf32": True, "cudnn tf32": True,
-                                "cublas workspace": ":4096:8"}
+                                "cublas workspace": ":4096:8", "fill uninitialized": False}
     select_device("cuda", purpose=TRAINING)  # one process may measure both (bench_profiles)
     assert not torch.backends.cudnn.deterministic and torch.backends.cudnn.benchmark
 
@@ -123,6 +128,24 @@ def test_cpu_helpers_change_nothing():
         assert (x @ x.T).dtype == (torch.bfloat16 if cpu_has_bf16() else torch.float32)
     assert torch.equal(torch.rand(5, generator=generator(cpu, 3)),
                        torch.rand(5, generator=torch.Generator().manual_seed(3)))
+
+
+def test_adam_is_fused_on_cuda_and_as_it_was_on_the_cpu():
+    """Training's optimiser (`ynet_training.ynet_optimizer`) asks for the fused step on CUDA; on
+    the CPU it is the plain Adam of before, state and hyperparameters alike."""
+    assert adam_options(torch.device("cuda", 0)) == {"fused": True}
+    assert adam_options(torch.device("cpu")) == {}
+    settings = YnetSettings(resize=0.25, epochs=1, batch_size=2, learning_rate=1e-3,
+                            augmentations=1, kernel_size=7, sigma=1.5, waypoints=[1, 3],
+                            encoder_channels=[4, 4, 8, 8, 8], decoder_channels=[8, 8, 8, 4, 4],
+                            seed=0, threads=1, trajectory_lr_scale=2.0)
+    model = YNet(settings.model_config(3, 4))
+    on_cuda = ynet_optimizer(model, settings, torch.device("cuda", 0))  # built on the CPU's params
+    assert [group["fused"] for group in on_cuda.param_groups] == [True, True]
+    on_cpu = ynet_optimizer(model, settings, torch.device("cpu"))
+    plain = torch.optim.Adam(optimizer_groups(model, settings), lr=settings.learning_rate)
+    assert on_cpu.state_dict() == plain.state_dict()
+    assert [group["fused"] for group in on_cpu.param_groups] == [None, None]
 
 
 def test_max_minutes_must_not_be_negative():

@@ -16,8 +16,8 @@ from torch.autograd import DeviceType
 from torch.profiler import ProfilerActivity
 
 from bench.bench_profiles import ScoringBench, TrainingBench
-from bench.gpu_check import (count_sync_warnings, output_paths, profile_training, sync_counts,
-                              top_events)
+from bench.gpu_check import (count_sync_warnings, output_paths, profile_scoring, profile_training,
+                              sync_counts, top_events)
 from pipeline.config.eval import EvalParams
 from pipeline.config.loading import load_profile, read_params
 from pipeline.config.ynet import YnetSettings
@@ -26,28 +26,38 @@ from ynet.sampling import SamplingOptions
 
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = {"smoke", "environment", "profile", "training_old", "training_new", "training_speedup",
-        "kernels", "scoring", "syncs", "stage_rates", "rates", "counts", "projection",
-        "projection_total_known_hours", "seconds"}
+        "ethucy_training", "kernels", "scoring", "scoring_training_settings", "ethucy_scoring",
+        "ethucy_scoring_training_settings", "scoring_repeats", "scoring_kernels", "syncs",
+        "stage_rates", "rates", "counts", "projection", "projection_total_known_hours", "seconds"}
+RATES = {"ynet_sdd", "ynet_ethucy", "segmentation", "sgan", "pecnet"}
 
 
 def test_the_smoke_run_writes_every_part_with_positive_rates(tmp_path):
     out = tmp_path / "out"
     done = subprocess.run(
         [sys.executable, "bench/gpu_check.py", "--smoke", "--device", "cpu", "--threads", "1",
-         "--out", str(out), "--data", str(tmp_path / "no_data")],
+         "--out", str(out), "--data", str(tmp_path / "no_data"),
+         "--rates-file", str(tmp_path / "rates" / "cpu-smoke.json")],
         cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, text=True,
         timeout=240)
     assert done.returncode == 0, done.stderr[-3000:]
     report = json.loads((out / "gpu_check.json").read_text())
     assert KEYS <= set(report)
     assert report["smoke"] is True
-    for part in ("training_old", "training_new", "scoring"):
+    for part in ("training_old", "training_new", "ethucy_training", "scoring",
+                 "scoring_training_settings", "ethucy_scoring", "ethucy_scoring_training_settings"):
         assert "error" not in report[part], report[part]
         assert report[part]["rate"] > 0 and report[part]["tflops"] > 0
         assert report[part]["peak_memory"]["bytes"] > 0
-    assert report["kernels"] == report["syncs"] == "skipped: no CUDA"
-    assert set(report["rates"]) == {"ynet_sdd", "segmentation", "sgan", "pecnet"}
+    assert report["ethucy_training"]["map"] == [96, 128]  # 144 x 180 at 1 / 1.5, padded
+    assert report["scoring_repeats"]["identical"] is True
+    assert report["kernels"] == report["syncs"] == report["scoring_kernels"] == "skipped: no CUDA"
+    assert set(report["rates"]) == RATES
     assert all(isinstance(rate, float) and rate > 0 for rate in report["rates"].values())
+    rates = json.loads((tmp_path / "rates" / "cpu-smoke.json").read_text())
+    assert rates["rates"] == report["rates"] and "torch" in rates["device"]
+    assert set(rates["sources"]) == RATES | set(rates["scoring_windows_per_s"])
+    assert rates["scoring_windows_per_s"]["ethucy_scoring"] == report["ethucy_scoring"]["rate"]
     rows = report["projection"]
     assert rows and all(row["hours"] is None and "needs" in row["unknown"] for row in rows)
     text = (out / "gpu_check.txt").read_text()
@@ -76,6 +86,13 @@ def test_the_benches_time_warm_steps_and_windows(benches):
     assert trained["shapes"] == [[2, 64, 64]] and trained["map"] == [64, 64]
     assert scored["windows"] == 3 and scored["warmup_windows"] == 3  # a batch of 2, then of 1
     assert min(trained["rate"], trained["tflops"], scored["rate"], scored["tflops"]) > 0
+
+
+def test_the_scoring_profile_counts_launches_per_window(benches):
+    result = profile_scoring(benches[2], [ProfilerActivity.CPU], DeviceType.CPU, "self_cpu_time_total")
+    assert result["windows"] == 3 and result["kernel_ms"] > 0
+    assert result["launches"] == result["launches_per_window"] == 0  # no CUDA launch on a CPU
+    assert any("conv" in row["name"] for row in result["kernels"])
 
 
 def test_the_kernel_profile_runs_with_the_cpu_as_its_device(benches):
@@ -123,3 +140,22 @@ def test_count_sync_warnings_counts_only_sync_warnings_and_restores_the_mode():
     assert counted["count"] == 3 and counted["other_warnings"] == 1
     assert modes == ["warn", 0]
     assert counted["where"][0][1] == 3 and counted["where"][0][0].startswith("tests/test_gpu_check.py:")
+
+
+def test_the_calibration_counts_one_for_one_sync_though_the_mode_warns_that_it_is_a_prototype():
+    """torch's `set_sync_debug_mode` warns, once a process, that the mode "does not yet detect all
+    synchronizing operations": only "called a synchronizing CUDA operation" counts as a sync."""
+    warned = []
+
+    def set_mode(mode):  # as torch does: a one-time warning when the mode is first turned on
+        if mode == "warn" and not warned:
+            warned.append(mode)
+            warnings.warn("Synchronization debug mode is a prototype feature and does not yet "
+                          "detect all synchronizing operations")
+
+    def one_item():
+        warnings.warn("called a synchronizing CUDA operation")
+
+    first = count_sync_warnings(one_item, set_mode)
+    assert (first["count"], first["other_warnings"]) == (1, 1)
+    assert count_sync_warnings(one_item, set_mode) == {**first, "other_warnings": 0}

@@ -72,3 +72,36 @@ def test_reads_of_host_tensors_and_of_what_is_computed_from_them_alone_are_free(
         bool(step > 1)  # from the host tensor alone: free
         (step * model.weight).sum().item()  # mixed with a device tensor: a sync
     assert [what for what, _ in audit.events] == ["scalar read"]
+
+
+INDEX = torch.tensor([0, 2, 2])
+VALUES = torch.tensor([1.0, 2.0, 3.0])
+
+
+@pytest.mark.parametrize("name, operation", [
+    ("scatter_add_", lambda: torch.zeros(3).scatter_add_(0, INDEX, VALUES)),
+    ("scatter of a tensor", lambda: torch.zeros(3).scatter(0, INDEX, VALUES)),
+    ("scatter_reduce sum", lambda: torch.zeros(3).scatter_reduce(0, INDEX, VALUES, "sum")),
+    ("index_add_", lambda: torch.zeros(3).index_add_(0, INDEX, VALUES)),
+    ("index_put_ accumulating", lambda: torch.zeros(3).index_put_((INDEX,), VALUES, accumulate=True)),
+    ("a tensor-indexed write", lambda: torch.zeros(3).__setitem__(INDEX, VALUES)),
+    ("index_copy_", lambda: torch.zeros(3).index_copy_(0, torch.tensor([2, 0, 1]), VALUES)),
+    ("put_", lambda: torch.zeros(3).put_(INDEX, VALUES, accumulate=True)),
+    ("bincount with weights", lambda: torch.bincount(INDEX, weights=VALUES)),
+    ("histc", lambda: torch.histc(VALUES, bins=3)),
+    ("float cumsum", lambda: VALUES.cumsum(0)),
+])
+def test_each_op_slow_on_cuda_in_deterministic_mode_is_listed(name, operation):
+    with SyncAudit() as audit:
+        operation()
+    assert len(audit.slow) == 1, (name, audit.slow)
+
+
+def test_their_fast_relatives_are_not_listed():
+    with SyncAudit() as audit:
+        torch.bincount(INDEX)  # no weights: counts, the same in any order
+        INDEX.cumsum(0)  # whole numbers
+        torch.zeros(3).scatter_(0, INDEX[:1], 1.0)  # a scalar written, no tensor of values
+        VALUES.gather(0, INDEX)
+        torch.bmm(torch.ones(1, 2, 3), torch.ones(1, 3, 1))
+    assert audit.slow == []

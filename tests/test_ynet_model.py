@@ -4,6 +4,10 @@ import pytest
 import torch
 import torch.nn.functional as F
 from torch.testing import assert_close
+from torch.utils._python_dispatch import TorchDispatchMode
+from torch.utils._pytree import tree_leaves
+
+import ynet.model
 
 from ynet.heatmaps import distance_maps, gaussian_heatmaps, scene_and_past
 from ynet.loss import ynet_loss
@@ -217,3 +221,47 @@ def test_weights_for_horizon_need_both_heads():
     del state["goal_decoder.head.weight"], state["goal_decoder.head.bias"]
     with pytest.raises(ValueError, match="both heads"):
         weights_for_horizon(state, 60)
+
+
+class InputDtypes(TorchDispatchMode):
+    """Records each dispatched op with the dtypes of its tensor inputs and of its output."""
+
+    def __init__(self):
+        super().__init__()
+        self.seen = []
+
+    def __torch_dispatch__(self, func, types, args=(), kwargs=None):
+        out = func(*args, **(kwargs or {}))
+        tensors = [t for t in tree_leaves(args) if isinstance(t, torch.Tensor)]
+        self.seen.append((str(func), {t.dtype for t in tensors},
+                          out.dtype if isinstance(out, torch.Tensor) else None))
+        return out
+
+
+def test_under_cuda_autocast_the_decoder_upsamples_and_concatenates_in_its_dtype(monkeypatch):
+    """`ynet.model.cuda_autocast_dtype` decides, and on the CPU it says None: nothing changes
+    there. Here CPU autocast stands in for CUDA's (whose policy, unlike the CPU's, would run the
+    upsampling in float32): the upsampling then runs on bfloat16 and no activation goes back to
+    float32 (a float32 distance map would promote every concatenation
+    with it), and the trajectory logits stay within bfloat16's rounding of the others."""
+    torch.manual_seed(0)
+    model = YNet(TINY).eval()
+    x = torch.randn(2, TINY.in_channels, 64, 64)
+    maps = torch.rand(2, 3, TINY.n_waypoints, 64, 64)  # float32, as distance_maps gives them
+    with torch.inference_mode(), torch.autocast("cpu", dtype=torch.bfloat16):
+        features = model.encode(x)
+        with InputDtypes() as before:
+            reference = model.predict_trajectory(features, maps)
+        monkeypatch.setattr(ynet.model, "cuda_autocast_dtype",
+                            lambda t: torch.get_autocast_dtype("cpu"))
+        with InputDtypes() as after:
+            shortcut = model.predict_trajectory(features, maps)
+    upsampled = [dtypes for op, dtypes, _ in after.seen if op.startswith("aten.upsample_bilinear2d")]
+    assert len(upsampled) == len(TINY.decoder_channels) and all(d == {torch.bfloat16} for d in upsampled)
+    def round_trips(seen):  # bfloat16 activations cast to float32 (for a concatenation, say)
+        return [op for op, dtypes, out in seen
+                if op.startswith(("aten.to.", "aten._to_copy.")) and dtypes == {torch.bfloat16}
+                and out == torch.float32]
+
+    assert round_trips(before.seen) and not round_trips(after.seen)
+    assert_close(shortcut.float(), reference.float(), atol=0.05, rtol=0.02)

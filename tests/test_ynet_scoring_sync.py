@@ -18,7 +18,7 @@ from pipeline.config.eval import EvalParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.runners import ynet_scoring
 from pipeline.runners.ynet_scoring import (CUDA_KMEANS_CHECK_EVERY, Sampling, kmeans_check_every,
-                                           predict_samplings, sampling_options)
+                                           predict_samplings, sampling_options, ttst_windows)
 from tests.sync_audit import SyncAudit
 from tests.test_no_fixed_device import N_FUTURE, N_PAST, SETTINGS, scenes
 from tests.test_train_ynet import TTST
@@ -31,6 +31,7 @@ from ynet.sampling import (SamplingOptions, distinct_points, goal_masses, kmeans
 torch.set_num_threads(1)
 
 HOST_CHECK = ("scalar read", "torch.bool")  # the sync-light mode's one kind of wait
+CUDA = torch.device("cuda")
 
 
 # The default mode as it was.
@@ -145,13 +146,15 @@ def test_default_mode_is_the_previous_ttst_and_predict_bit_for_bit(monkeypatch):
 
 # (b) The sync-light mode waits for the host once per `check_every` iterations, nothing else.
 
-def test_sync_light_kmeans_reads_the_host_once_per_check_and_no_size():
+@pytest.mark.parametrize("max_iter, check_every", [(64, 16), (64, 32), (40, 16)])
+def test_sync_light_kmeans_reads_the_host_once_per_block_and_no_size(max_iter, check_every):
     points = peaky_points()
-    for check_every in (16, 32):
-        with SyncAudit() as audit:  # tol 0: no set ever stops, all 64 iterations run
-            kmeans(points, 19, gen(0), max_iter=64, tol=0.0, check_every=check_every)
-        assert audit.events == [HOST_CHECK] * (64 // check_every)
-        assert audit.ops["aten.randint.generator"] == 64  # a restart drawn every iteration
+    with SyncAudit() as audit:  # tol 0: no set ever stops, all iterations run
+        kmeans(points, 19, gen(0), max_iter=max_iter, tol=0.0, check_every=check_every)
+    blocks = -(-max_iter // check_every)
+    assert audit.events == [HOST_CHECK] * (blocks - 1)  # none after the last: the loop ends anyway
+    assert audit.ops["aten.randint.generator"] == blocks  # a block's restart points in one draw
+    assert audit.ops["aten.bmm.default"] == max_iter  # one one-hot product an iteration
 
 
 def test_sync_light_ttst_and_predict_wait_once_per_16_iterations_for_a_batch():
@@ -159,9 +162,9 @@ def test_sync_light_ttst_and_predict_wait_once_per_16_iterations_for_a_batch():
     options = SamplingOptions(K_e=5, temperature=1.0, rel_threshold=0.01)
     with SyncAudit() as audit:
         ttst(logits, options, gen(0), check_every=16)
-    iterations = audit.ops["aten.randint.generator"]
-    assert iterations % 16 == 0  # it stopped at a check (not at max_iter)
-    assert audit.events == [HOST_CHECK] * (iterations // 16)
+    blocks = audit.ops["aten.randint.generator"]
+    assert blocks > 0 and audit.events == [HOST_CHECK] * blocks  # it stopped at a check
+    assert audit.ops["aten.bmm.default"] == 16 * blocks + 1  # the iterations and the goal masses
     model, past, x = tiny_model_and_windows(3)
     encoded = sampling.encode(model, x)
     for k_a, use_cws in ((1, True), (3, True), (1, False)):
@@ -170,9 +173,9 @@ def test_sync_light_ttst_and_predict_wait_once_per_16_iterations_for_a_batch():
         with SyncAudit() as audit:  # under inference_mode, as scoring runs
             sampling.predict_encoded(model, encoded, past[:, -1], options, gen(1), 60.0,
                                      check_every=16)
-        iterations = audit.ops["aten.randint.generator"]
-        assert iterations > 0 and iterations % 16 == 0
-        assert audit.events == [HOST_CHECK] * (iterations // 16)
+        blocks = audit.ops["aten.randint.generator"]
+        assert blocks > 0 and audit.events == [HOST_CHECK] * blocks
+        assert audit.slow == []  # nothing slow on CUDA in deterministic mode
 
 
 def test_the_default_mode_waits_twice_per_iteration_and_reads_a_size():
@@ -234,6 +237,32 @@ def test_sync_light_restarts_empty_clusters_and_repeats_with_the_seed():
     assert torch.equal(runs[0].trajectory, runs[1].trajectory)
 
 
+def test_point_counts_are_distinct_points_without_scatter_at_a_fixed_size():
+    points = torch.cat([peaky_points(), torch.tensor([[[-1.5, 2.0], [0.25, -3.0]] * 1000] * 3)], 1)
+    with SyncAudit() as audit:
+        ordered, counts = sampling.point_counts(points)  # (N, P, 2), (N, P)
+    assert audit.events == [] and audit.slow == []
+    assert ordered.shape == points.shape and counts.shape == points.shape[:2]
+    unique, weights = distinct_points(points)  # (N, U, 2), (N, U)
+    for n in range(points.shape[0]):
+        kept = counts[n] > 0
+        assert torch.equal(ordered[n][kept], unique[n][weights[n] > 0])  # the same points, in order
+        assert torch.equal(counts[n][kept], weights[n][weights[n] > 0])  # counted alike
+        assert sorted(map(tuple, ordered[n].tolist())) == sorted(map(tuple, points[n].tolist()))
+
+
+def test_sync_light_goal_masses_equal_the_default_ones_without_scatter():
+    logits = torch.stack([two_mode_logits(), two_mode_logits().flip(-1),
+                          torch.randn(48, 64, generator=gen(9)) * 3])
+    draws = sample_positions(torch.sigmoid(logits), 10_000, gen(5), rel_threshold=0.01)
+    goals = torch.rand(3, 7, 2, generator=gen(6)) * 60
+    goals[:, 3] = goals[:, 2]  # a tie: the first goal takes the points
+    with SyncAudit() as audit:
+        light = goal_masses(draws, goals, sync_light=True)
+    assert audit.events == [] and audit.slow == []
+    assert torch.equal(light, goal_masses(draws, goals)) and not light[:, 3].any()
+
+
 # (d) Weight-0 points change no centre.
 
 @pytest.mark.parametrize("check_every", [None, 16])
@@ -249,7 +278,7 @@ def test_weight_0_padding_changes_no_centre(check_every):
     padded = (torch.cat([unique, stray], 1), torch.cat([weights, weights.new_zeros(n, 300)], 1))
     for k, seed in ((4, 0), (19, 1), (40, 40)):  # k = 40 restarts empty clusters
         plain = kmeans(points, k, gen(seed), distinct=(unique, weights), check_every=check_every)
-        for distinct in ((fixed_unique, fixed_weights), padded):
+        for distinct in ((fixed_unique, fixed_weights), padded, sampling.point_counts(points)):
             assert torch.equal(kmeans(points, k, gen(seed), distinct=distinct,
                                       check_every=check_every), plain), (k, seed)
 
@@ -264,6 +293,8 @@ def test_check_every_must_be_positive():
 def test_the_runner_takes_the_exact_mode_on_the_cpu_and_the_sync_light_one_on_cuda():
     assert kmeans_check_every(torch.device("cpu")) is None
     assert kmeans_check_every(torch.device("cuda", 0)) == CUDA_KMEANS_CHECK_EVERY == 16
+    assert [ttst_windows(torch.device("cpu"), b) for b in (1, 4, 100)] == [1, 4, 100]
+    assert [ttst_windows(torch.device("cuda"), b) for b in (1, 4, 24, 100)] == [64, 64, 48, 100]
 
 
 @pytest.fixture(params=[0, 32], ids=["whole scene", "crops"])
@@ -293,19 +324,21 @@ def test_the_runner_on_the_cpu_scores_as_the_previous_ttst(runner, monkeypatch):
             np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
 
 
-def test_the_runner_in_the_cuda_mode_waits_only_at_checks_and_copies(runner, monkeypatch):
-    """The runner's CUDA mode, run on the CPU: per batch and sampling, the k-means checks and the
-    three copies of its results to the host; repeatable with the seeds."""
-    monkeypatch.setattr(ynet_scoring, "kmeans_check_every", lambda device: 16)
+def test_the_runner_in_the_cuda_mode_waits_only_at_checks_and_once_a_scene(runner, monkeypatch):
+    """The runner's CUDA mode, run on the CPU: the k-means checks of each sampling (the goals of
+    the scene's windows drawn at once), and one copy of the scene's results to the host; repeatable
+    with the seeds."""
+    check_every, group = kmeans_check_every, ttst_windows
+    monkeypatch.setattr(ynet_scoring, "kmeans_check_every", lambda device: check_every(CUDA))
+    monkeypatch.setattr(ynet_scoring, "ttst_windows", lambda device, batch: group(CUDA, batch))
     with SyncAudit() as audit:
         light = run(*runner)
-    iterations = audit.ops["aten.randint.generator"]
-    batch_samplings = 3 * len(runner[3])  # 5 windows in batches of 2, each sampled 4 times
+    blocks = audit.ops["aten.randint.generator"]
     kinds = Counter(what for what, _ in audit.events)
-    # each copy is `.cpu().numpy()`: on CUDA the `.numpy()` of a host tensor is free
-    assert kinds["cpu"] == kinds["numpy"] == 3 * batch_samplings  # paths, goals, weights
-    assert set(kinds) == {"cpu", "numpy", "scalar read"}  # no size read, no host-made index
-    assert audit.events.count(HOST_CHECK) == kinds["scalar read"] <= iterations / 16
+    # the copy is `.cpu().numpy()`: on CUDA the `.numpy()` of a host tensor is free
+    assert kinds == {"cpu": len(runner[1]), "numpy": len(runner[1]), "scalar read": blocks}
+    assert audit.events.count(HOST_CHECK) == blocks >= len(runner[3])  # each sampling's k-means
+    assert audit.slow == []
     for mine, again in zip(light, run(*runner)):
         np.testing.assert_array_equal(mine.paths, again.paths)
         np.testing.assert_array_equal(mine.goals, again.goals)

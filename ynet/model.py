@@ -61,6 +61,27 @@ def pointwise_conv(conv: nn.Conv2d, x: torch.Tensor) -> torch.Tensor:
     return out.unflatten(2, x.shape[-2:])  # (N, C_out, H, W)
 
 
+def cuda_autocast_dtype(x: torch.Tensor) -> torch.dtype | None:
+    """The dtype CUDA autocast runs convolutions in, where `x` is on CUDA under autocast; else
+    None (the CPU, whose numbers the shortcuts that ask this must not move)."""
+    if x.is_cuda and torch.is_autocast_enabled("cuda"):
+        return torch.get_autocast_dtype("cuda")
+    return None
+
+
+def upsample2x(x: torch.Tensor) -> torch.Tensor:
+    """x2 bilinear upsampling (B, C, h, w) -> (B, C, 2h, 2w), corners not aligned (as upstream).
+
+    On CUDA under autocast it runs in x's own dtype, the autocast one after a convolution:
+    autocast's policy for this op is float32, a copy to float32 and back around a float32 kernel
+    (11 % of a `paper` training step's kernel time on an H200, forward and backward).
+    """
+    if cuda_autocast_dtype(x) is not None:
+        with torch.autocast(x.device.type, enabled=False):
+            return F.interpolate(x, scale_factor=2, mode="bilinear", align_corners=False)
+    return F.interpolate(x, scale_factor=2, mode="bilinear", align_corners=False)
+
+
 def memory_format(x: torch.Tensor) -> torch.memory_format:
     """channels_last if `x` is stored that way (convs on CPU are about 1.5x faster in it), else NCHW."""
     if x.dim() == 4 and x.is_contiguous(memory_format=torch.channels_last):
@@ -114,7 +135,7 @@ class UpBlock(nn.Module):
         self, x: torch.Tensor, skip: torch.Tensor, cond: torch.Tensor | None = None
     ) -> torch.Tensor:
         # x: (B*K, c_in, h, w), skip: (B, c_skip, 2h, 2w), cond: (B*K, n_w, 2h, 2w) or None
-        x = F.interpolate(x, scale_factor=2, mode="bilinear", align_corners=False)
+        x = upsample2x(x)
         x = self.up(x)  # (B*K, c_in / 2, 2h, 2w)
         x = F.relu(shared_input_conv(self.conv1, skip, before=x, after=cond), inplace=True)
         return F.relu(self.conv2(x), inplace=True)  # (B*K, c_out, 2h, 2w)
@@ -157,8 +178,11 @@ class Decoder(nn.Module):
             # Restrided, not `.contiguous()`: a 1-channel map (one waypoint) counts as contiguous
             # in both layouts, and torch picks a conv's layout from its input's strides, so the
             # K-sample decoder would fall back to NCHW (about 1.5x slower on CPU) with a copy at
-            # every skip.
-            conds[0] = cond.clone(memory_format=memory_format(features[0]))
+            # every skip. On CUDA under autocast, in its dtype: a float32 map would promote every
+            # concatenation with the features to float32, each cast back by the next conv.
+            dtype, layout = cuda_autocast_dtype(cond), memory_format(features[0])
+            conds[0] = (cond.clone(memory_format=layout) if dtype is None
+                        else cond.to(dtype, memory_format=layout, copy=True))
             for i in range(1, len(features)):
                 conds[i] = F.avg_pool2d(conds[i - 1], 2)  # (B*K, n_w, H / 2^i, W / 2^i)
         x = F.relu(shared_input_conv(self.centre1, features[-1], after=conds[-1]), inplace=True)

@@ -127,22 +127,30 @@ def sample_positions(
     return xy.to(prob.dtype).reshape(*prob.shape[:-2], num_samples, 2)
 
 
-def distinct_points(points: torch.Tensor, size: int | None = None
-                    ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Each set's distinct points and how often each occurs: (N, P, 2) -> (N, U, 2), (N, U).
-
-    Distinct points come in (x, y) order; sets with fewer than U distinct points are padded with
-    weight-0 copies of their first point. Two stable sorts along each set order the points by
-    (x, y) (much faster than a `torch.unique(dim=0)` over (set, x, y) rows, which gives the same).
-    U is the most distinct points of any set, read on the host (a sync on a GPU); `size` (at
-    least that, P always is) fixes U instead, so nothing waits for the device.
-    """
+def sorted_runs(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Each set's points in (x, y) order and where each run of equal points starts: (N, P, 2) ->
+    (N, P, 2), (N, P) bool. Two stable sorts (much faster than a `torch.unique(dim=0)` over
+    (set, x, y) rows, which gives the same order)."""
     n, p, _ = points.shape
     order = points[..., 1].argsort(dim=-1, stable=True)  # (N, P) by y ...
     order = order.gather(1, points[..., 0].gather(1, order).argsort(dim=-1, stable=True))  # ... then x
     ordered = points.gather(1, order[..., None].expand(n, p, 2))  # (N, P, 2) sorted by (x, y)
     first = torch.ones(n, p, dtype=torch.bool, device=points.device)  # (N, P) starts a new point
     first[:, 1:] = (ordered[:, 1:] != ordered[:, :-1]).any(-1)
+    return ordered, first
+
+
+def distinct_points(points: torch.Tensor, size: int | None = None
+                    ) -> tuple[torch.Tensor, torch.Tensor]:
+    """Each set's distinct points and how often each occurs: (N, P, 2) -> (N, U, 2), (N, U).
+
+    Distinct points come in (x, y) order (`sorted_runs`); sets with fewer than U distinct points
+    are padded with weight-0 copies of their first point.
+    U is the most distinct points of any set, read on the host (a sync on a GPU); `size` (at
+    least that, P always is) fixes U instead, so nothing waits for the device.
+    """
+    n, p, _ = points.shape
+    ordered, first = sorted_runs(points)  # (N, P, 2), (N, P)
     slot = first.cumsum(1) - 1  # (N, P) index of each sorted point among its set's distinct ones
     size = int(slot[:, -1].max()) + 1 if size is None else size  # U
     unique = points[:, :1].repeat(1, size, 1)  # (N, U, 2)
@@ -182,6 +190,48 @@ def cluster_means(unique: torch.Tensor, weights: torch.Tensor, weighted: torch.T
     return sums / counts.clamp_min(1)[..., None], counts == 0
 
 
+def point_counts(points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Each set's points in (x, y) order, each distinct one counted once: (N, P, 2) -> (N, P, 2),
+    (N, P), the count at a point's first copy and 0 at its other copies.
+
+    `distinct_points` at a fixed size without its scatters (on a GPU whose deterministic mode is
+    on, `scatter_` and `scatter_add_` take a slow sort-based path): the count of a run of equal
+    points is where the run ends minus where it starts, found by a binary search of the run
+    numbers. Weight-0 copies change no k-means centre and no goal mass.
+    """
+    n, p, _ = points.shape
+    ordered, first = sorted_runs(points)  # (N, P, 2), (N, P)
+    run = first.cumsum(1)  # (N, P) non-decreasing: the run each sorted point belongs to
+    end = torch.searchsorted(run, run, right=True)  # (N, P) one past the run's last point
+    start = torch.arange(p, device=points.device)  # a run's first point is where it starts
+    return ordered, torch.where(first, end - start, 0).to(points.dtype)
+
+
+def nearest_one_hot(rows: torch.Tensor, centres: torch.Tensor, clusters: torch.Tensor,
+                    out: torch.Tensor) -> torch.Tensor:
+    """Which centre each point is nearest to (the first on ties), one-hot, written into `out`
+    (N, k, U) of any dtype: points as rows (N, 1, U, 2), centres (N, k, 2) and `clusters`
+    arange(k)[:, None] (k, 1), shaped once by a caller that loops. The squared distances are
+    `nearest_centre`'s, (px - cx)^2 + (py - cy)^2 in float32, and so is the assignment."""
+    squared = (rows - centres.unsqueeze(2)).square_().sum(-1)  # (N, k, U)
+    return torch.eq(squared.argmin(1, keepdim=True), clusters, out=out)
+
+
+def nearest_sums(points: torch.Tensor, centres: torch.Tensor, masses: torch.Tensor) -> torch.Tensor:
+    """For each centre, the sum of `masses` over the points nearest to it (`nearest_one_hot`):
+    points (N, U, 2), centres (N, k, 2), masses (N, U, m) float64 -> (N, k, m) float64.
+
+    A one-hot assignment times the masses: a matrix product, deterministic and fast on a GPU,
+    where a `scatter_add_` is deterministic only through a sort. float64 (which no TF32 setting
+    touches) keeps sums of whole numbers below 2^53 exact, so they equal a float32
+    `scatter_add_`'s wherever that one is exact (sums below 2^24).
+    """
+    (n, k, _), u = centres.shape, points.shape[1]
+    clusters = torch.arange(k, device=points.device)[:, None]  # (k, 1)
+    one_hot = masses.new_empty(n, k, u)  # (N, k, U)
+    return torch.bmm(nearest_one_hot(points.unsqueeze(1), centres, clusters, one_hot), masses)
+
+
 def random_points(points: torch.Tensor, k: int, generator: torch.Generator) -> torch.Tensor:
     """k points of each set drawn uniformly, with replacement: (N, P, 2) -> (N, k, 2)."""
     n, p, _ = points.shape
@@ -214,42 +264,94 @@ def kmeans(
     `check_every` None: the host reads, every iteration, whether a cluster emptied (restart points
     are drawn only then) and whether every set has stopped, and `distinct_points` reads its size:
     about two host syncs per iteration, which on a GPU cost far more than the iteration's small
-    kernels. `check_every` n: the sync-light mode for GPUs. Distinct points are padded to P (fixed
-    shapes), restart points are drawn every iteration and taken only for empty clusters (no host
-    branch; the draws, and so the generator's stream, differ from the default mode's, but repeat
-    with the seed), and the host reads whether every set has stopped only every n iterations. Each
-    set still stops on the device at the iteration its own move falls below `tol` (its centres
-    frozen from then on), so where no cluster ever empties the centres equal the default mode's.
+    kernels. `check_every` n: the sync-light mode for GPUs (`sync_light_lloyd`).
     """
     if check_every is not None and check_every < 1:
         raise ValueError(f"check_every must be at least 1, got {check_every}")
     n, p, _ = points.shape
     first = torch.rand(n, p, generator=generator, device=points.device).argsort(dim=-1)[:, :k]  # (N, k)
     centres = torch.gather(points, 1, first[..., None].expand(n, k, 2))  # (N, k, 2)
+    if check_every is not None:
+        unique, weights = point_counts(points) if distinct is None else distinct
+        return sync_light_lloyd(points, unique, weights, centres, generator, max_iter, tol,
+                                check_every)
     if distinct is None:
-        distinct = distinct_points(points, None if check_every is None else p)
+        distinct = distinct_points(points)
     unique, weights = distinct  # (N, U, 2), (N, U)
     weighted = unique * weights[..., None]  # (N, U, 2)
     active = torch.ones(n, dtype=torch.bool, device=points.device)
-    every = check_every or 1
-    for step in range(max_iter):
+    for _ in range(max_iter):
         new, empty = cluster_means(unique, weights, weighted, centres)  # (N, k, 2), (N, k)
-        if check_every is not None or empty.any():  # sync-light: drawn every step, no host branch
+        if empty.any():
             new = torch.where(empty[..., None], random_points(points, k, generator), new)
         shift = (new - centres).square().sum(-1).sqrt().sum(-1)  # (N,)
         centres = torch.where(active[:, None, None], new, centres)
         active &= shift.square() >= tol
-        if (step + 1) % every == 0 and not active.any():
+        if not active.any():
+            break
+    return centres
+
+
+def sync_light_lloyd(points: torch.Tensor, unique: torch.Tensor, weights: torch.Tensor,
+                     centres: torch.Tensor, generator: torch.Generator, max_iter: int, tol: float,
+                     check_every: int) -> torch.Tensor:
+    """`kmeans`' iterations for GPUs: fixed shapes, no host read but one every `check_every`
+    iterations, no scatter. points (N, P, 2), weighted points (N, U, 2) and (N, U) (`point_counts`
+    or `distinct_points`), initial centres (N, k, 2) -> centres (N, k, 2).
+
+    The iterations run in blocks of `check_every`. A block draws, in one go, a restart point for
+    every cluster and iteration, taken only where a cluster empties (no host branch: the draws, and
+    so the generator's stream, differ from the default mode's, but repeat with the seed). Clusters
+    are summed by `nearest_sums` (a one-hot matrix product). Every set iterates to the block's end;
+    then the moves of each iteration are compared with `tol` all at once and each set keeps the
+    centres of the first iteration whose move fell below it, frozen from then on: the default
+    mode's stop, found after the fact. The host reads only whether every set has stopped, once a
+    block. So where no cluster ever empties (and sums stay below 2^24) the centres equal the
+    default mode's, bit for bit.
+    """
+    n, k, _ = centres.shape
+    masses = torch.cat([unique * weights[..., None], weights[..., None]], dim=-1).double()  # (N, U, 3)
+    rows = unique.unsqueeze(1)  # (N, 1, U, 2)
+    clusters = torch.arange(k, device=points.device)[:, None]  # (k, 1)
+    one_hot = masses.new_empty(n, k, unique.shape[1])  # (N, k, U), rewritten every iteration
+    means = centres.new_empty(n, k, 2)  # (N, k, 2), likewise
+    stopped = torch.zeros(n, dtype=torch.bool, device=points.device)  # (N,) frozen for good
+    for start in range(0, max_iter, check_every):
+        steps = min(check_every, max_iter - start)
+        restarts = random_points(points, steps * k, generator).unflatten(1, (steps, k))  # (N, T, k, 2)
+        trail = [centres]  # the centres before the block, then after each iteration
+        for restart in restarts.unbind(1):  # (N, k, 2) each
+            # (N, k, 3): each cluster's sums of x and y and its count (`nearest_sums`)
+            summed = torch.bmm(nearest_one_hot(rows, trail[-1], clusters, one_hot), masses)
+            sums, counts = summed.split([2, 1], dim=-1)  # (N, k, 2), (N, k, 1)
+            # divided in float64, rounded once to float32: float32's own division of the same
+            # whole numbers (float64 has room for float32's rounding)
+            torch.div(sums, counts, out=means)
+            trail.append(torch.where(counts == 0, restart, means))  # (N, k, 2)
+        moves = torch.stack(trail, 1).diff(dim=1)  # (N, T, k, 2)
+        settled = moves.square().sum(-1).sqrt().sum(-1).square() < tol  # (N, T)
+        # each set's first settled iteration, or the block's last: the centres it ends the block with
+        last = torch.cat([settled[:, :-1], settled.new_ones(n, 1)], 1).int().argmax(1)  # (N,)
+        reached = torch.stack(trail[1:], 1).gather(1, last[:, None, None, None].expand(n, 1, k, 2))
+        centres = torch.where(stopped[:, None, None], centres, reached[:, 0])
+        stopped |= settled.any(1)
+        if start + steps < max_iter and bool(stopped.all()):
             break
     return centres
 
 
 def goal_masses(draws: torch.Tensor, goals: torch.Tensor,
-                distinct: tuple[torch.Tensor, torch.Tensor] | None = None) -> torch.Tensor:
+                distinct: tuple[torch.Tensor, torch.Tensor] | None = None,
+                sync_light: bool = False) -> torch.Tensor:
     """TTST's weight of each goal: the share of the goal-map draws (B, S, 2) nearest to it among
     the goals (B, K_e, 2) -> (B, K_e), rows summing to 1 (the first goal on ties). The softargmax
     goal competes with the k-means centres, so each goal weighs the part of the map it stands for.
-    `distinct`: `distinct_points(draws)`, where the caller has it already."""
+    `distinct`: `distinct_points(draws)` (or `point_counts`), where the caller has it already.
+    `sync_light`: summed by `nearest_sums` (no scatter; the same numbers, the counts being whole)."""
+    if sync_light:
+        unique, counts = point_counts(draws) if distinct is None else distinct  # (B, S, 2), (B, S)
+        masses = nearest_sums(unique, goals, counts[..., None].double())[..., 0].to(counts.dtype)
+        return masses / draws.shape[1]
     unique, counts = distinct_points(draws) if distinct is None else distinct  # (B, U, 2), (B, U)
     nearest = nearest_centre(unique, goals)  # (B, U)
     masses = counts.new_zeros(goals.shape[:2]).scatter_add_(1, nearest, counts)  # (B, K_e)
@@ -266,19 +368,21 @@ def ttst(
     Goal 0 is the softargmax of the raw logits; the other K_e - 1 are k-means centres of
     `ttst_samples` draws from sigmoid(logits / T), pixels below rel_threshold * max suppressed.
     Clustering many draws spreads the few goals over the modes instead of wasting them nearby.
-    `check_every`: `kmeans`' (an int: its sync-light mode for GPUs, distinct points of fixed size).
+    `check_every`: `kmeans`' (an int: its sync-light mode for GPUs, which counts the draws with
+    `point_counts` and weighs the goals by `nearest_sums`: fixed shapes, no scatter).
     """
     best = softargmax(goal_logits)[:, None]  # (B, 1, 2)
     if options.K_e == 1:
         return best, torch.ones_like(best[..., 0])
     prob = torch.sigmoid(goal_logits / options.temperature)  # (B, H, W)
     draws = sample_positions(prob, options.ttst_samples, generator, options.rel_threshold)  # (B, S, 2)
-    size = None if check_every is None else options.ttst_samples  # fixed: no host read
-    distinct = distinct_points(draws, size)  # (B, U, 2), (B, U): for the k-means and the masses
+    sync_light = check_every is not None
+    # (B, U, 2), (B, U): for the k-means and the masses (U = S in the sync-light mode)
+    distinct = point_counts(draws) if sync_light else distinct_points(draws)
     centres = kmeans(draws, options.K_e - 1, generator, options.kmeans_max_iter, options.kmeans_tol,
                      distinct, check_every)
     goals = torch.cat([best, centres], dim=1)  # (B, K_e, 2)
-    return goals, goal_masses(draws, goals, distinct)
+    return goals, goal_masses(draws, goals, distinct, sync_light)
 
 
 def ttst_goals(
@@ -386,29 +490,38 @@ def cws_waypoints(
     return torch.cat(paths, dim=1)  # (B, K_a*K_e, n_w, 2)
 
 
+def draw_goals(goal_logits: torch.Tensor, options: SamplingOptions, generator: torch.Generator,
+               check_every: int | None = None) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """The K_e goals of each window from its goal logits (B, H, W): TTST's goals (B, K_e, 2) and
+    masses (B, K_e) (`ttst`; `check_every` its k-means mode), or without TTST K_e distinct pixels
+    drawn from sigmoid(goal / T) (as the authors: no relative threshold) and None."""
+    if options.use_ttst:
+        return ttst(goal_logits, options, generator, check_every)
+    prob = torch.sigmoid(goal_logits / options.temperature)
+    return sample_positions(prob, options.K_e, generator, replacement=False), None
+
+
 def sample_weighted_waypoints(
     waypoint_logits: torch.Tensor,
     last_observed: torch.Tensor,
     options: SamplingOptions,
     generator: torch.Generator,
     check_every: int | None = None,
+    goals: tuple[torch.Tensor, torch.Tensor | None] | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor | None]:
     """Goals and waypoints for every sample: (B, n_w, H, W) logits, goal last -> (B, K_e*K_a, n_w, 2),
     and each sample's weight (B, K) (`Prediction.weights`; None without TTST).
 
-    Goals: TTST, or K_e distinct pixels drawn from sigmoid(goal / T). Waypoints: CWS, or one
-    independent draw per sample from each sigmoid(waypoint / T) map. `check_every`: TTST's k-means
-    mode (`kmeans`).
+    Goals: `draw_goals` (TTST, or K_e distinct pixels drawn from sigmoid(goal / T)), unless `goals`
+    gives them already (its output for these windows: drawn for more windows at once). Waypoints:
+    CWS, or one independent draw per sample from each sigmoid(waypoint / T) map. `check_every`:
+    TTST's k-means mode (`kmeans`).
     """
     b, n_w, height, width = waypoint_logits.shape
-    weights = None
-    if options.use_ttst:
-        goals, masses = ttst(waypoint_logits[:, -1], options, generator,
-                             check_every)  # (B, K_e, 2), (B, K_e)
-        weights = masses.repeat(1, options.K_a) / options.K_a  # (B, K), path-major as the goals
-    else:  # as the authors: K_e distinct pixels, no relative threshold
-        prob = torch.sigmoid(waypoint_logits[:, -1] / options.temperature)
-        goals = sample_positions(prob, options.K_e, generator, replacement=False)
+    if goals is None:
+        goals = draw_goals(waypoint_logits[:, -1], options, generator, check_every)
+    goals, masses = goals  # (B, K_e, 2), (B, K_e) or None
+    weights = None if masses is None else masses.repeat(1, options.K_a) / options.K_a  # (B, K)
     goals = goals.repeat(1, options.K_a, 1)  # (B, K, 2), path-major
     if n_w == 1:
         return goals[:, :, None], weights
@@ -438,12 +551,19 @@ class Encoded:
     waypoint_logits: torch.Tensor  # (B, n_w, H, W)
 
 
-def encode(model: YNet, scene_and_past: torch.Tensor) -> Encoded:
-    """The encoder and the goal decoder (float32, channels_last: about 1.5x faster convs on CPU)
-    for a batch of windows on one map: (B, C + n_p, H, W) -> `Encoded`."""
+def encoder_features(model: YNet, scene_and_past: torch.Tensor) -> list[torch.Tensor]:
+    """The encoder alone (float32, channels_last: about 1.5x faster convs on CPU) for a batch of
+    windows on one map: (B, C + n_p, H, W) -> `Encoded.features`."""
     x = scene_and_past.contiguous(memory_format=torch.channels_last)
     with torch.inference_mode():
-        features = model.encode(x)
+        return model.encode(x)
+
+
+def encode(model: YNet, scene_and_past: torch.Tensor) -> Encoded:
+    """The encoder and the goal decoder for a batch of windows on one map: (B, C + n_p, H, W) ->
+    `Encoded`."""
+    features = encoder_features(model, scene_and_past)
+    with torch.inference_mode():
         goal_logits = model.predict_goals(features)  # (B, n_f, H, W)
         # one slice per waypoint: a list index would be copied to the GPU, waiting for it
         waypoint_logits = torch.stack([goal_logits[:, i] for i in model.config.waypoints], dim=1)
@@ -460,14 +580,16 @@ def predict_encoded(
     chunk_size: int = 8,
     bf16: bool = False,
     check_every: int | None = None,
+    goals: tuple[torch.Tensor, torch.Tensor | None] | None = None,
 ) -> Prediction:
     """`predict` after its `encode`: goals and waypoints drawn from `encoded`'s maps, and the
     trajectory decoder for every sample. Several samplings of one `encode` (other seeds, other
-    options) give exactly what as many `predict` calls give, without re-running the encoder."""
+    options) give exactly what as many `predict` calls give, without re-running the encoder.
+    `goals`: `draw_goals`' output for these windows, where it was drawn beforehand."""
     height, width = encoded.waypoint_logits.shape[-2:]
     with torch.inference_mode():
         samples, weights = sample_weighted_waypoints(encoded.waypoint_logits, last_observed.float(),
-                                                     options, generator, check_every)
+                                                     options, generator, check_every, goals)
         steps = []
         for start in range(0, options.K, chunk_size):
             chunk = samples[:, start : start + chunk_size]  # (B, k, n_w, 2)
@@ -475,7 +597,13 @@ def predict_encoded(
             maps = maps.unflatten(1, chunk.shape[1:3])  # (B, k, n_w, H, W)
             with torch.autocast(samples.device.type, dtype=torch.bfloat16, enabled=bf16):
                 logits = model.predict_trajectory(encoded.features, maps)  # (B, k, n_f, H, W)
-            steps.append(softargmax(logits.float()))  # (B, k, n_f, 2)
+            # Each chunk's large tensors are let go as soon as they are used, not when the next
+            # chunk replaces them: the maps before the softmax, the bfloat16 logits before their
+            # float32 copy's softmax, that copy before the next chunk's decoder.
+            del maps
+            logits = logits.float()
+            steps.append(softargmax(logits))  # (B, k, n_f, 2)
+            del logits
         trajectory = torch.cat(steps, dim=1)  # (B, K, n_f, 2)
     return Prediction(trajectory=trajectory, goals=samples[:, :, -1], waypoints=samples,
                       weights=weights)

@@ -10,9 +10,10 @@ and goals of every round can be kept as scored (`kept`, a `pipeline.harness.pred
 `PredictionRounds`) for the stored-predictions file. `qualitative_examples` draws a few windows'
 heatmaps and samples in one npz layout (the long-term figure's `qualitative_arrays` and the
 short-term windows of `pipeline.runners.short_term`). Runs on the model's device;
-on CUDA the trajectory decoder runs in bfloat16 (goals, and so FDE, stay float32) and TTST's
-k-means in its sync-light mode (`kmeans_check_every`). The model's settings come from its
-checkpoint (`load_model`), never from params.yaml.
+on CUDA the trajectory decoder runs in bfloat16 (goals, and so FDE, stay float32), TTST's
+k-means in its sync-light mode (`kmeans_check_every`) over the goals of up to 64 windows of a scene
+at once (`ttst_windows`), and a scene's predictions come to the host in one copy. The model's
+settings come from its checkpoint (`load_model`), never from params.yaml.
 """
 
 from __future__ import annotations
@@ -38,7 +39,8 @@ from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, 
 from pipeline.harness.predictions import PredictionRounds
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
-from ynet.sampling import SamplingOptions, encode, predict, predict_encoded
+from ynet.sampling import (Encoded, SamplingOptions, draw_goals, encode, encoder_features,
+                           predict, predict_encoded)
 from ynet.segmentation import PAD_CLASS
 
 if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
@@ -111,6 +113,59 @@ class Sampled:
     seconds: float
 
 
+CUDA_TTST_WINDOWS = 64
+"""On CUDA, TTST draws the goals of up to 64 windows of a scene at once (whole batches): one
+k-means over all of them, so its few hundred small kernels a run are shared by 64 windows instead
+of one batch's. Each batch of the group is then encoded again for its trajectory decoder (the
+encoder is under 2 % of scoring's FLOPs), which keeps only the group's inputs and waypoint maps
+in memory, not its features."""
+
+
+def ttst_windows(device: torch.device, batch_size: int) -> int:
+    """How many windows' goals are drawn at once (`predict_samplings`): one batch on the CPU (the
+    `cpu` profile's draws, in their order); on CUDA as many whole batches as fit in
+    `CUDA_TTST_WINDOWS` (at least one)."""
+    if device.type != "cuda":
+        return batch_size
+    return max(1, CUDA_TTST_WINDOWS // batch_size) * batch_size
+
+
+@dataclass(frozen=True)
+class EncodedBatch:
+    """One batch of a group of windows (`predict_samplings`), encoded: its inputs (to encode them
+    again), its encoder features (None where the group holds several batches), its waypoint logits,
+    where its agents stand in the model's input and which rows of the arrays it fills."""
+
+    inputs: torch.Tensor  # (B, C + n_p, H, W)
+    features: list[torch.Tensor] | None
+    waypoint_logits: torch.Tensor  # (B, n_w, H, W)
+    last_observed: torch.Tensor  # (B, 2) in the input's pixels
+    origin: torch.Tensor  # (B, 2) the input's pixel [0, 0] in the scene map
+    rows: np.ndarray  # (B,)
+
+    def encoded(self, model: YNet) -> Encoded:
+        """The batch's `Encoded`, its features computed again if they were dropped."""
+        features = self.features if self.features is not None else encoder_features(model, self.inputs)
+        return Encoded(features=features, waypoint_logits=self.waypoint_logits)
+
+
+def encoded_batches(model: YNet, scene: SceneWindows, first: int, stop: int, settings: YnetSettings,
+                    batch_size: int, crop: int, crop_lead_steps: float) -> list[EncodedBatch]:
+    """Windows `first` to `stop` of `scene` in batches of `batch_size`, each encoded; with more
+    than one batch, the encoder features are dropped (a group's would fill the memory)."""
+    batches = []
+    for start in range(first, stop, batch_size):
+        end = min(start + batch_size, stop)
+        past = scene.past[start:end]
+        inputs, origin = window_inputs(scene.semantic, past, settings.max_distance, crop, PAD_CLASS,
+                                       crop_lead_steps)  # origin (B, 2)
+        encoded = encode(model, inputs)
+        features = encoded.features if stop - first <= batch_size else None
+        batches.append(EncodedBatch(inputs, features, encoded.waypoint_logits, past[:, -1] - origin,
+                                    origin, scene.index[start:end]))
+    return batches
+
+
 def predict_samplings(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,
                       samplings: list[Sampling], params: EvalParams, n_windows: int, desc: str,
                       crop: int = 0, crop_lead_steps: float = 0.0) -> tuple[list[Sampled], float]:
@@ -122,11 +177,15 @@ def predict_samplings(model: YNet, scenes: list[SceneWindows], settings: YnetSet
 
     crop > 0 runs the model on a crop x crop window ahead of each agent instead of the whole map
     (`ynet_data.window_inputs`): short-term futures stay near the agent. Runs on the model's device
-    (scenes are moved there); on CUDA the trajectory decoder runs in bfloat16 and TTST's k-means
-    checks for convergence on the host only every `CUDA_KMEANS_CHECK_EVERY` iterations.
+    (scenes are moved there). On CUDA the trajectory decoder runs in bfloat16, TTST's k-means
+    checks for convergence on the host only every `CUDA_KMEANS_CHECK_EVERY` iterations, and the
+    goals of up to `CUDA_TTST_WINDOWS` windows are drawn at once (`ttst_windows`; each batch is
+    then encoded again for its trajectory decoder). The predictions stay on the device until a
+    scene is done, then come to the host in one copy.
     """
     device = module_device(model)
     check_every = kmeans_check_every(device)
+    group_size = ttst_windows(device, params.batch_size)
     draws = [generator(device, sampling.seed) for sampling in samplings]
     bf16 = use_bf16(device, params.bf16)
     n_future = scenes[0].future.shape[1]
@@ -139,28 +198,60 @@ def predict_samplings(model: YNet, scenes: list[SceneWindows], settings: YnetSet
     with tqdm(total=n_windows, desc=desc, leave=False, disable=None) as progress:
         for scene in scenes:
             scene = scene.to(device)  # a no-op for scenes grouped on the model's device
-            for start in range(0, len(scene), params.batch_size):
+            kept = []  # (sampling, rows, trajectory, goals, weights): on the device until the scene ends
+            for first in range(0, len(scene), group_size):
                 began = time.perf_counter()
-                past = scene.past[start:start + params.batch_size]
-                inputs, origin = window_inputs(scene.semantic, past, settings.max_distance,
-                                               crop, PAD_CLASS, crop_lead_steps)  # origin (B, 2)
-                encoded = encode(model, inputs)
-                last_observed = past[:, -1] - origin
-                rows = scene.index[start:start + params.batch_size]
+                batches = encoded_batches(model, scene, first, min(first + group_size, len(scene)),
+                                          settings, params.batch_size, crop, crop_lead_steps)
+                goal_logits = (batches[0].waypoint_logits[:, -1] if len(batches) == 1 else
+                               torch.cat([b.waypoint_logits[:, -1] for b in batches]))  # (G, H, W)
                 shared_seconds += time.perf_counter() - began
+                drawn = []  # each sampling's goals (G, K_e, 2) and masses (G, K_e) or None
                 for i, sampling in enumerate(samplings):
                     began = time.perf_counter()
-                    out = predict_encoded(model, encoded, last_observed, sampling.options,
-                                          draws[i], settings.max_distance, params.chunk_size, bf16,
-                                          check_every)
-                    paths[i][rows] = ((out.trajectory + origin[:, None, None]).cpu().numpy()
-                                      / settings.resize)
-                    goals[i][rows] = (out.goals + origin[:, None]).cpu().numpy() / settings.resize
-                    if weights[i] is not None:
-                        weights[i][rows] = out.weights.cpu().numpy()
+                    with torch.inference_mode():
+                        drawn.append(draw_goals(goal_logits, sampling.options, draws[i], check_every))
                     seconds[i] += time.perf_counter() - began
-                progress.update(len(rows))
+                at = 0
+                for batch in batches:
+                    began = time.perf_counter()
+                    encoded = batch.encoded(model)
+                    shared_seconds += time.perf_counter() - began
+                    size = len(batch.rows)
+                    for i, sampling in enumerate(samplings):
+                        began = time.perf_counter()
+                        batch_goals = tuple(None if part is None else part[at:at + size]
+                                            for part in drawn[i])
+                        out = predict_encoded(model, encoded, batch.last_observed, sampling.options,
+                                              draws[i], settings.max_distance, params.chunk_size,
+                                              bf16, check_every, batch_goals)
+                        kept.append((i, batch.rows, out.trajectory + batch.origin[:, None, None],
+                                     out.goals + batch.origin[:, None], out.weights))
+                        seconds[i] += time.perf_counter() - began
+                    at += size
+                    progress.update(size)
+            began = time.perf_counter()
+            for i, rows, path, goal, weight in on_host(kept):
+                paths[i][rows] = path / settings.resize
+                goals[i][rows] = goal / settings.resize
+                if weight is not None:
+                    weights[i][rows] = weight
+            shared_seconds += time.perf_counter() - began
     return [Sampled(*out) for out in zip(paths, goals, weights, seconds)], shared_seconds
+
+
+def on_host(kept: list[tuple]) -> list[tuple]:
+    """`kept` with its tensors as numpy arrays of their own dtypes, copied to the host in one piece
+    per dtype (a GPU waits once, not once per tensor); other values as they are."""
+    tensors = [value for entry in kept for value in entry if isinstance(value, torch.Tensor)]
+    arrays = {}
+    for dtype in dict.fromkeys(t.dtype for t in tensors):
+        same = [t for t in tensors if t.dtype == dtype]
+        flat = torch.cat([t.flatten() for t in same]).cpu().numpy()
+        pieces = np.split(flat, np.cumsum([t.numel() for t in same])[:-1])
+        arrays.update((id(t), piece.reshape(t.shape)) for t, piece in zip(same, pieces))
+    return [tuple(arrays[id(value)] if isinstance(value, torch.Tensor) else value for value in entry)
+            for entry in kept]
 
 
 def predict_scenes(model: YNet, scenes: list[SceneWindows], settings: YnetSettings,

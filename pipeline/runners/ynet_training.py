@@ -33,7 +33,8 @@ from pipeline.data.ynet_data import (SceneWindows, TrainingBatch, augment,
                                      cropped_training_batch, group_by_scene, padded_semantic,
                                      training_batch, window_inputs)
 from pipeline import checkpoints
-from pipeline.device import CPU, autocast, conv_layout, restore_rng_states, rng_states, to_device
+from pipeline.device import (AUTOCAST_DTYPE, CPU, adam_options, autocast, conv_layout,
+                             restore_rng_states, rng_states, to_device)
 from pipeline.harness.metrics import ade_fde
 from pipeline.io import IntermediateError, copy_file, save_torch, write_csv
 from pipeline.preemption import NEVER, Preemption
@@ -138,6 +139,13 @@ def optimizer_groups(model: YNet, settings: YnetSettings) -> list[dict]:
              "lr_scale": settings.trajectory_lr_scale}]
 
 
+def ynet_optimizer(model: YNet, settings: YnetSettings, device: torch.device) -> torch.optim.Adam:
+    """Training's Adam over `optimizer_groups`, fused where the model is on CUDA
+    (`device.adam_options`)."""
+    return torch.optim.Adam(optimizer_groups(model, settings), lr=settings.learning_rate,
+                            **adam_options(device))
+
+
 def concat_batches(batches: list[TrainingBatch]) -> TrainingBatch:
     """Batches of the same map size as one: (sum B, ...) each."""
     if len(batches) == 1:
@@ -203,14 +211,17 @@ def train_epoch(model: YNet, optimizer, scenes: list[SceneWindows], settings: Yn
             save_partial(read_losses())
             raise preemption.request(f"epoch {epoch}, step {step} of {len(plan)}")
         batch = plan_batch(plan[step], scenes, settings, augmented)
-        inputs = batch.inputs
-        if device.type == "cuda" or settings.bf16:
+        inputs, waypoint_maps = batch.inputs, batch.waypoint_maps
+        if device.type == "cuda":  # autocast's dtype and layout in one copy, not a copy and casts
+            inputs = inputs.to(AUTOCAST_DTYPE, memory_format=torch.channels_last)
+            waypoint_maps = waypoint_maps.to(AUTOCAST_DTYPE)
+        elif settings.bf16:
             inputs = inputs.contiguous(memory_format=torch.channels_last)
         rate = scheduled_learning_rate(settings, epoch, step, len(plan), epochs)
         for group in optimizer.param_groups:
             group["lr"] = rate * group.get("lr_scale", 1.0)
         with autocast(device, settings.bf16):
-            goal_logits, trajectory_logits = model(inputs, batch.waypoint_maps)
+            goal_logits, trajectory_logits = model(inputs, waypoint_maps)
         loss = ynet_loss(goal_logits.float(), trajectory_logits.float(), batch.target,
                          settings.loss_scale).total
         optimizer.zero_grad(set_to_none=True)
@@ -291,7 +302,7 @@ def train(train_arrays: WindowArrays, val_arrays: WindowArrays, semantic_maps, s
     if initial_weights is not None:
         model.load_state_dict(initial_weights)
     model = conv_layout(model, device)
-    optimizer = torch.optim.Adam(optimizer_groups(model, settings), lr=settings.learning_rate)
+    optimizer = ynet_optimizer(model, settings, device)
     rng = np.random.default_rng(settings.seed)
     train_scenes = group_by_scene(train_arrays, semantic_maps, sizes, settings.resize, device)
     val_scenes = group_by_scene(val_arrays, semantic_maps, sizes, settings.resize, device)
