@@ -81,3 +81,19 @@ def test_table_3_names_budget_where_4x_closes_half_the_gap(tmp_path):
     assert cells["ADE"].why.verdict == "budget"
     assert "4x the epochs closes 60% of the gap" in cells["ADE"].why.detail
     assert cells["FDE"].why.verdict == "unexplained" and "4x the epochs closes" in cells["FDE"].why.detail
+
+
+def test_the_long_term_ynets_curve_reads_its_main_setting_and_its_headline(tmp_path):
+    ynet_run = {"main": {"ade": {"mean": 55.0}, "fde": {"mean": 100.0}, "k_e": 20, "k_a": 1},
+                "ka_grid": [{"ade": {"mean": 1.0}, "fde": {"mean": 2.0}, "k_e": 10, "k_a": 1}],
+                "factor": 2, "epochs": 76, "machine": {"cpu": "test CPU"}}
+    curves = budget_runs(MetricsStore("studies/budget", {"sdd_long_ynet_x2.json": ynet_run}))
+    assert curves[("sdd_long", "ynet")][0].values == {"ade": 55.0, "fde": 100.0}
+    store = MetricsStore("metrics", {"ynet_eval.json": {
+        "main": {"ade": {"mean": 50.48, "std": 0.1}, "fde": {"mean": 96.0, "std": 0.2}},
+        "ka_grid": [{"ade": {"mean": 9.0}, "fde": {"mean": 9.0}, "k_e": 20, "k_a": 1}]}})
+    (entry,) = budget_section(curves, RAW, store,
+                              lambda name: FigureSlot(tmp_path / name, f"figures/{name}"))
+    assert entry["headline"] == {"ade": 50.48, "fde": 96.0}  # main, as every Y-net cell reads it
+    assert entry["paper"] == {"ade": 47.94, "fde": 66.71}  # Table 3's Y-net at K_a = 1
+    assert entry["closes"]["ade"] == (2, pytest.approx((50.48 - 55.0) / (50.48 - 47.94)))

@@ -16,7 +16,8 @@ from typing import Any
 
 from pipeline.model_list import label
 from pipeline.report.figures import _pyplot
-from pipeline.report.lookups import MetricsStore, dig, is_number
+from pipeline.report.lookups import (YNET_MAIN, Measured, MetricsStore, dig, is_number,
+                                     lookup_ynet_setting)
 from pipeline.report.provenance import BudgetPoint
 
 METRICS = ("ade", "fde")
@@ -38,10 +39,12 @@ class BudgetRun:
 
 
 def run_values(record: Mapping[str, Any]) -> dict[str, float]:
-    """Test ADE / FDE of a scoring record: a long-term one ({"ade": {"mean"}}) or a short-term
-    one at its first K ({"k20": {"ade": {"mean"}}})."""
+    """Test ADE / FDE of a scoring record: a long-term baseline's ({"ade": {"mean"}}), the
+    long-term Y-net's main setting ({"main": {"ade": {"mean"}}}) or a short-term one at its first
+    K ({"k20": {"ade": {"mean"}}})."""
     ks = record.get("ks")
-    node = record.get(f"k{ks[0]}") if isinstance(ks, list) and ks else record
+    node = (record.get(f"k{ks[0]}") if isinstance(ks, list) and ks
+            else record.get("main", record))
     return {metric: float(dig(node, metric, "mean")) for metric in METRICS
             if is_number(dig(node, metric, "mean"))}
 
@@ -105,6 +108,10 @@ def plot_budget(runs: list[BudgetRun], paper: Mapping[str, float | None],
     return True
 
 
+def headline_value(value) -> float | None:
+    return value.mean if isinstance(value, Measured) else None
+
+
 def paper_and_headline(benchmark: str, model: str, paper: Mapping[str, Any],
                        store: MetricsStore) -> tuple[dict[str, float | None], dict[str, float | None], str]:
     """The paper's numbers, our headline run's and the unit for a curve's benchmark: Table 3's
@@ -112,7 +119,9 @@ def paper_and_headline(benchmark: str, model: str, paper: Mapping[str, Any],
     if benchmark == LONG_TERM_BENCHMARK:
         column = next((c for c in paper["sdd_long"]["columns"] if c.get("dataset") == "sdd"
                        and c.get("model") == model and c.get("k_a") == 1), {})
-        ours = {m: dig(store.files.get(f"baselines/{model}_tf30.json"), m, "mean") for m in METRICS}
+        ours = {m: headline_value(lookup_ynet_setting(store, "ynet_eval.json", **YNET_MAIN, metric=m))
+                if model == "ynet" else dig(store.files.get(f"baselines/{model}_tf30.json"), m, "mean")
+                for m in METRICS}
         return {m: column.get(m) for m in METRICS}, ours, "px"
     if benchmark == "sdd":
         column = next((c for c in paper["sdd_short"]["columns"]
