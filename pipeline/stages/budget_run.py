@@ -35,7 +35,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--model", required=True, choices=TRAINED_BASELINES)
     parser.add_argument("--factor", type=int, required=True, help="x the profile's epochs")
     parser.add_argument("--horizon", type=int, help="long_term_baseline: t_f (s)")
-    parser.add_argument("--dataset", choices=SHORT_TERM_DATASETS, help="short_term_baseline: the benchmark")
+    parser.add_argument("--dataset", choices=SHORT_TERM_DATASETS,
+                        help="short_term_baseline: the benchmark")
     parser.add_argument("--windows", type=Path, required=True,
                         help="the horizon's table (long-term) or data/short_term (short-term)")
     parser.add_argument("--scratch", type=Path, required=True,

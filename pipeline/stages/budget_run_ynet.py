@@ -33,7 +33,8 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--kind", required=True, choices=list(YNET_KINDS))
     parser.add_argument("--factor", type=int, required=True, help="x the profile's epochs")
-    parser.add_argument("--dataset", choices=SHORT_TERM_DATASETS, help="short_term_ynet: the benchmark")
+    parser.add_argument("--dataset", choices=SHORT_TERM_DATASETS,
+                        help="short_term_ynet: the benchmark")
     parser.add_argument("--windows", type=Path, required=True,
                         help="the release windows (long-term) or data/short_term (short-term)")
     parser.add_argument("--maps", type=Path, required=True, help="the scene maps Y-net reads")
