@@ -20,7 +20,8 @@ def long_term(factor: int, ade: float, fde: float) -> dict:
 
 def short_term(factor: int, ade: float, fde: float) -> dict:
     return {"ks": [20], "k20": {"ade": {"mean": ade}, "fde": {"mean": fde}}, "factor": factor,
-            "epochs": 10 * factor, "machine": {"cpu": "test CPU"}}
+            "epochs": 10 * factor, "train": {"best_epoch": 3 * factor},
+            "machine": {"cpu": "test CPU"}}
 
 
 STUDY = {"sdd_long_pecnet_x1.json": long_term(1, 90.0, 180.0),
@@ -38,6 +39,7 @@ def test_records_become_curves_by_benchmark_and_model_in_budget_order():
         (1, 40, 90.0, 10), (2, 80, 85.0, 20), (4, 160, 81.0, 40)]
     assert runs[0].source == "studies/budget/sdd_long_pecnet_x1.json" and runs[0].cpu == "test CPU"
     assert curves[("zara2", "pecnet")][0].values == {"ade": 0.20, "fde": 0.35}
+    assert curves[("zara2", "pecnet")][0].best_epoch == 6  # a short-term record keeps it in "train"
 
 
 def test_the_longest_run_is_set_against_the_studys_own_1x_else_the_headline():

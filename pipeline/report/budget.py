@@ -58,7 +58,7 @@ def budget_runs(studies: MetricsStore) -> dict[tuple[str, str], list[BudgetRun]]
         if not (isinstance(record, Mapping) and is_number(record.get("factor")) and benchmark):
             continue
         model = rest
-        best = record.get("best_epoch")
+        best = record.get("best_epoch", dig(record, "train", "best_epoch"))  # long-, short-term
         curves.setdefault((benchmark, model), []).append(BudgetRun(
             int(record["factor"]), int(record.get("epochs", 0)), run_values(record),
             int(best) if is_number(best) else None,
