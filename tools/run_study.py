@@ -25,8 +25,6 @@ import sys
 import time
 from pathlib import Path
 
-FINGERPRINTS = "data/code_fingerprints/"
-
 
 def study_stages(repo, targets: list[str]) -> list:
     """The frozen stages the targets name, in order, each once; a non-frozen one is refused (it
@@ -45,20 +43,11 @@ def study_stages(repo, targets: list[str]) -> list:
     return chosen
 
 
-def fingerprint_only(changes: list) -> bool:
-    """A stage's status entries hold only modified code-fingerprint deps (and at least one)."""
-    if not changes or not all(isinstance(change, dict) for change in changes):
-        return False  # e.g. "changed command", "always changed"
-    entries = [(kind, path, state) for change in changes
-               for kind, paths in change.items() for path, state in paths.items()]
-    return bool(entries) and all(kind == "changed deps" and path.startswith(FINGERPRINTS)
-                                 and state == "modified" for kind, path, state in entries)
-
-
 def relock_code(stages: list, root: Path) -> int:
     """Re-record the code fingerprints of `stages` (frozen, lifted in memory) whose one change is
     that fingerprint; refuse, naming them, where any has another change."""
     from dvc.utils.serialize import modify_yaml
+    from relock_fingerprints import FINGERPRINTS, fingerprint_only  # this folder's: run as a script
 
     stale, must_run = [], []
     for stage in stages:

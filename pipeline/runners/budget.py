@@ -31,7 +31,7 @@ from typing import Any
 from pipeline.benchmarks.registry import short_term
 from pipeline.checkpoints import read
 from pipeline.model_list import TRAINED_BASELINES
-from pipeline.runners.studies import dotted, run_stage, scratch_params
+from pipeline.runners.studies import dotted, run_stage, scratch_params, short_term_commands
 
 BASELINE_KINDS = {"long_term_baseline": TRAINED_BASELINES, "short_term_baseline": TRAINED_BASELINES}
 YNET_KINDS = {"short_term_ynet": ("ynet",), "long_term_ynet": ("ynet",)}
@@ -99,17 +99,8 @@ def stage_commands(point: BudgetPoint, scratch: Path, n_past: int) -> list[tuple
                 ("evaluate_ynet", [*common, "--model", model, "--metrics", str(run),
                                    "--qualitative", str(scratch / "qualitative.npz"),
                                    "--predictions", predictions])]
-    common = ["--dataset", point.dataset, "--windows", windows, "--checkpoint-dir", str(model_dir)]
-    scored = ["--train-metrics", str(train), "--metrics", str(run), "--predictions", predictions]
-    if point.kind == "short_term_baseline":
-        common += ["--model", point.model]
-        return [("train_short_term_baseline", [*common, "--metrics", str(train)]),
-                ("evaluate_short_term_baseline", [*common, *scored])]
-    common += ["--maps", str(point.maps.resolve()), "--sdd", str(point.sdd.resolve())]
-    return [("train_short_term_ynet", [*common, "--metrics", str(train)]),
-            ("evaluate_short_term_ynet", [*common, *scored,
-                                          "--ethucy-scenes", str(point.ethucy_scenes.resolve()),
-                                          "--qualitative", str(scratch / "qualitative.npz")])]
+    ynet_inputs = (point.maps, point.sdd, point.ethucy_scenes) if point.kind in YNET_KINDS else None
+    return short_term_commands(point.model, point.dataset, point.windows, scratch, ynet_inputs)
 
 
 def validation_curve(model_dir: Path) -> list[float]:

@@ -57,3 +57,27 @@ def run_stage(stage: str, args: list[str], cwd: Path) -> None:
     path = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
     subprocess.run([sys.executable, "-m", f"pipeline.stages.{stage}", *args], cwd=cwd,
                    env={**os.environ, "PYTHONPATH": path}, check=True)
+
+
+def short_term_commands(model: str, dataset: str, windows: Path, scratch: Path,
+                        ynet_inputs: tuple[Path, Path, Path] | None = None
+                        ) -> list[tuple[str, list[str]]]:
+    """(stage, arguments) of a short-term model's training, then its scoring, in `scratch`, every
+    path absolute: `train_short_term_baseline` + `evaluate_short_term_baseline`, or for Y-net
+    (`ynet_inputs`: its maps, the SDD root, the ETH/UCY images) `train_short_term_ynet` +
+    `evaluate_short_term_ynet`."""
+    train, run = scratch / "train.json", scratch / "run.json"
+    common = ["--dataset", dataset, "--windows", str(windows.resolve()),
+              "--checkpoint-dir", str(scratch / "model")]
+    scored = ["--train-metrics", str(train), "--metrics", str(run),
+              "--predictions", str(scratch / "predictions.parquet")]
+    if ynet_inputs is None:
+        common += ["--model", model]
+        return [("train_short_term_baseline", [*common, "--metrics", str(train)]),
+                ("evaluate_short_term_baseline", [*common, *scored])]
+    maps, sdd, ethucy_scenes = ynet_inputs
+    common += ["--maps", str(maps.resolve()), "--sdd", str(sdd.resolve())]
+    return [("train_short_term_ynet", [*common, "--metrics", str(train)]),
+            ("evaluate_short_term_ynet", [*common, *scored,
+                                          "--ethucy-scenes", str(ethucy_scenes.resolve()),
+                                          "--qualitative", str(scratch / "qualitative.npz")])]

@@ -33,7 +33,7 @@ from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.io import write_json
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.report.run_provenance import machine
-from pipeline.runners.studies import run_stage, scratch_params
+from pipeline.runners.studies import run_stage, scratch_params, short_term_commands
 
 MODELS = (*TRAINED_BASELINES, "ynet")
 
@@ -44,20 +44,8 @@ def seed_key(model: str, profile: str) -> str:
 
 def stage_commands(args: argparse.Namespace, scratch: Path) -> list[tuple[str, list[str]]]:
     """(stage, arguments) of the training, then the scoring, every path absolute."""
-    train, run = scratch / "train.json", scratch / "run.json"
-    common = ["--dataset", args.dataset, "--windows", str(args.windows.resolve()),
-              "--checkpoint-dir", str(scratch / "model")]
-    scored = ["--train-metrics", str(train), "--metrics", str(run),
-              "--predictions", str(scratch / "predictions.parquet")]
-    if args.model != "ynet":
-        common += ["--model", args.model]
-        return [("train_short_term_baseline", [*common, "--metrics", str(train)]),
-                ("evaluate_short_term_baseline", [*common, *scored])]
-    common += ["--maps", str(args.maps.resolve()), "--sdd", str(args.sdd.resolve())]
-    return [("train_short_term_ynet", [*common, "--metrics", str(train)]),
-            ("evaluate_short_term_ynet", [*common, *scored,
-                                          "--ethucy-scenes", str(args.ethucy_scenes.resolve()),
-                                          "--qualitative", str(scratch / "qualitative.npz")])]
+    ynet_inputs = (args.maps, args.sdd, args.ethucy_scenes) if args.model == "ynet" else None
+    return short_term_commands(args.model, args.dataset, args.windows, scratch, ynet_inputs)
 
 
 def main(argv: list[str] | None = None) -> None:
