@@ -2,7 +2,7 @@ import pandas as pd
 import pytest
 
 from pipeline.config.windows import WindowParams
-from pipeline.harness.chain_bias import chain_bias
+from pipeline.studies.chain_bias import chain_bias
 
 STRIDE = 30
 

@@ -65,20 +65,19 @@ SHORT_TERM_MODELS = "config.short_term_models: its eval_params builds the eval s
 IND = "runners.ind: inD's segmentation, Y-net and baselines, training and scoring, in one module"
 SLOTS = "slot_scoring: resolving the slots from params.yaml beside reading a slot's file"
 DEVICE = "device: parses runtime.device names with the section's own check (parse_device_name)"
-PECNET_TEST_SELECTION = "harness.pecnet_test_selection: the long-term diagnostic's loading"
+PECNET_TEST_SELECTION = "studies.pecnet_test_selection: the long-term diagnostic's loading"
 AUGMENT = "data.augment (through runners.segmentation): its NO_AUGMENT default"
 NOT_READ: dict[str, dict[str, str]] = {
-    "runtime": {**dict.fromkeys(["horizon_analysis", "score_predictions",
-                                 "score_short_term_predictions", "short_term_tables",
-                                 "short_term_windows"], DEVICE),
-                "epoch_selection": BASELINE_RUNS},
+    "runtime": dict.fromkeys(["epoch_selection", "horizon_analysis", "score_predictions",
+                              "score_short_term_predictions", "short_term_tables",
+                              "short_term_windows"], DEVICE),
     "windows": {"evaluate_ind": IND, "train_ind": IND, "train_short_term_baseline": BASELINE_RUNS,
                 "short_term_pecnet_test_selection": PECNET_TEST_SELECTION},
     "train_baseline": {**dict.fromkeys(["evaluate_baseline", "evaluate_baseline_seed",
                                         "evaluate_pecnet_ka", "evaluate_rpecnet",
                                         "evaluate_rpecnet_seed"], BASELINE_RUNS),
                        "predict_model": MODEL_RUNS},
-    "evaluate_baseline": {**dict.fromkeys(["epoch_selection", "train_baseline", "train_baseline_seed",
+    "evaluate_baseline": {**dict.fromkeys(["train_baseline", "train_baseline_seed",
                                            "train_short_term_baseline"], BASELINE_RUNS),
                           "fit_model": MODEL_RUNS, "train_ind": IND,
                           "short_term_pecnet_test_selection": PECNET_TEST_SELECTION},

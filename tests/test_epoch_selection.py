@@ -1,6 +1,6 @@
-"""Epoch selection rules and their split-half study (pipeline.harness.epoch_selection), the rules
-kept by the training loop while it runs, evaluation scoring the kept weights of the chosen rule,
-and the stage over real checkpoint folders."""
+"""Epoch selection rules (pipeline.harness.epoch_selection) and their split-half study
+(pipeline.studies.epoch_selection), the rules kept by the training loop while it runs, evaluation
+scoring the kept weights of the chosen rule, and the stage over real checkpoint folders."""
 
 from __future__ import annotations
 
@@ -18,9 +18,9 @@ from pipeline.harness import baseline_runs, epoch_selection
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.pecnet import Pecnet
 from pipeline.harness.baselines.sgan import SocialGan
-from pipeline.harness.epoch_selection import (centred_mean, selected_epoch, split_half_study,
-                                              summarise)
+from pipeline.harness.epoch_selection import centred_mean, selected_epoch
 from pipeline.stages import epoch_selection as stage
+from pipeline.studies.epoch_selection import long_term_runs, split_half_study, summarise
 from tests.test_baselines import TINY_PECNET, TINY_SGAN, straight_tracks
 
 torch.set_num_threads(1)
@@ -174,7 +174,7 @@ def test_dvc_yaml_lists_the_checkpoint_folders_of_every_run_the_stage_reads():
     """The stage's deps are written out by hand in dvc.yaml (DVC cannot loop over params there):
     they must be exactly the folders `long_term_runs` gives under params.yaml."""
     params = read_params(REPO / "params.yaml")
-    runs = baseline_runs.long_term_runs(Path("checkpoints"), params["windows"]["horizons"],
+    runs = long_term_runs(Path("checkpoints"), params["windows"]["horizons"],
                                         params["train_baseline"]["seed"], params["baseline_seeds"]["extra"])
     deps = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]["epoch_selection"]["deps"]
     assert sorted(d for d in deps if d.startswith("checkpoints/")) == sorted(str(run[3]) for run in runs)

@@ -13,7 +13,7 @@ import pytest
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.config.loading import read_params
 from pipeline.data.window_table import conform, to_arrays
-from pipeline.harness import horizon_analysis as ha
+from pipeline.studies import horizon_analysis as ha
 from pipeline.harness.predictions import (PredictionArrays, predictions_table,
                                           write_no_predictions, write_predictions)
 from pipeline.io import write_parquet

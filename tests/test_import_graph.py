@@ -40,10 +40,12 @@ FLOORS = (
     ("models", ("pipeline.models", "pipeline.models.*"), BELOW_MODELS),
     ("harness", ("pipeline.harness", "pipeline.harness.*"), (*BELOW_MODELS, "models")),
     ("runners", ("pipeline.runners", "pipeline.runners.*"), (*BELOW_MODELS, "models", "harness")),
+    ("studies", ("pipeline.studies", "pipeline.studies.*"),
+     (*BELOW_MODELS, "models", "harness", "runners")),
     ("report", ("pipeline.report", "pipeline.report.*"), (*BELOW_MODELS, "models")),
     # a stage never imports another stage: test_no_stage_imports_another_stage
     ("stages", ("pipeline.stages", "pipeline.stages.*"),
-     (*BELOW_MODELS, "models", "harness", "runners", "report")),
+     (*BELOW_MODELS, "models", "harness", "runners", "studies", "report")),
 )
 
 

@@ -17,7 +17,7 @@ import yaml
 from pipeline import checkpoints
 from pipeline.config.loading import from_dict, read_params
 from pipeline.config.pecnet_test_selection import PecnetTestSelectionParams
-from pipeline.harness import pecnet_test_selection as diagnostic
+from pipeline.studies import pecnet_test_selection as diagnostic
 from pipeline.harness.baselines import common
 from pipeline.harness.baselines.pecnet import Pecnet
 from pipeline.report import compat

@@ -15,7 +15,7 @@ import pytest
 import torch
 import yaml
 
-from pipeline.harness import rpecnet_rollouts as rr
+from pipeline.studies import rpecnet_rollouts as rr
 from pipeline.harness.baselines import common
 from pipeline.models.constant_velocity import extrapolate
 from pipeline.harness.baselines.pecnet import Pecnet, make_batch

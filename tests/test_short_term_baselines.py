@@ -183,7 +183,7 @@ def test_the_switch_takes_only_ethucy_folds_once(folds, message):
 
 
 def test_test_selection_refuses_headline_files_it_cannot_read(tmp_path):
-    from pipeline.runners.short_term_test_selection import headline_facts
+    from pipeline.studies.short_term_test_selection import headline_facts
 
     (tmp_path / "train.json").write_text(json.dumps({"train": {"best_epoch": 3}}))
     (tmp_path / "run.json").write_text(json.dumps({"ks": [20], "k20": {"per_round": []}}))

@@ -18,7 +18,7 @@ import yaml
 
 from pipeline.config.loading import ParamsError, from_dict, load_profile
 from pipeline.config.ynet_seeds import YnetSeedsParams, ynet_seed_slots
-from pipeline.harness import seed_spread
+from pipeline.studies import seed_spread
 from pipeline.io import IntermediateError
 from pipeline.runners import ynet_training
 from pipeline.stages import (baseline_seed_spread, evaluate_ynet, evaluate_ynet_seed, train_ynet,

@@ -26,7 +26,7 @@ every epoch and prints a summary per run.
 
 compares epoch budgets over every run in `<out>` (`<out>/summary.json`): each budget's best epoch and
 val ADE, and, since the lowest of more noisy epochs is lower by luck alone (15-23 validation windows
-at 40-60 s), the split-half held-out ADE of the epoch it keeps (`pipeline.harness.epoch_selection`).
+at 40-60 s), the split-half held-out ADE of the epoch it keeps (`pipeline.studies.epoch_selection`).
 """
 
 from __future__ import annotations
@@ -55,6 +55,7 @@ from pipeline.harness.baseline_runs import model_config, train
 from pipeline.harness.baselines.common import fit_result_from, load_checkpoint
 from pipeline.harness.metrics import window_errors
 from pipeline.io import write_json
+from pipeline.studies.epoch_selection import split_half_study
 
 
 def stage_folder(checkpoints_root: Path, model: str, horizon: int, seed: int, main_seed: int) -> Path:
@@ -177,14 +178,14 @@ def summarise(name: str, record: dict) -> None:
 def budget_comparison(window_curves: np.ndarray, budgets: tuple[int, ...], n_splits: int = 200,
                       seed: int = 0) -> dict:
     """Best epoch and val ADE within each epoch budget, and the split-half held-out ADE of the epoch
-    each budget keeps (`epoch_selection.split_half_study`, rule `raw`, the same halvings for every
+    each budget keeps (`split_half_study`, rule `raw`, the same halvings for every
     budget): the lowest of more noisy epochs is lower by luck alone, the held-out half is not.
 
     window_curves: (E, N) validation ADE per epoch and window; budgets <= E."""
     curve = window_curves.mean(axis=1)  # (E,)
     out = {}
     for budget in budgets:
-        study = epoch_selection.split_half_study(window_curves[:budget], n_splits, seed, ("raw",))
+        study = split_half_study(window_curves[:budget], n_splits, seed, ("raw",))
         best = int(curve[:budget].argmin())
         out[str(budget)] = {"best_epoch": best, "best_val_ade": float(curve[best]),
                             "held_out_ade": study["held_out"]["raw"], "oracle_ade": study["oracle"]}

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 class EpochSelectionStudyParams:
     """Section `epoch_selection_study`: the split-half study of the stage `epoch_selection`, which
     compares the epoch selection rules on validation windows alone
-    (`pipeline.harness.epoch_selection`)."""
+    (`pipeline.studies.epoch_selection`)."""
 
     n_splits: int = 200
     """Random halvings of each run's validation windows (each half chooses once)."""

@@ -36,7 +36,7 @@ from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, SCORING, TRAINING, describe, select_device
-from pipeline.harness import baselines, epoch_selection
+from pipeline.harness import baselines
 from pipeline.harness.baselines.common import best_path, fit_result_from, load_checkpoint
 from pipeline.harness.model_runs import score_rounds, split_to_score
 from pipeline.harness.predictions import PredictionRounds
@@ -110,39 +110,6 @@ def validation_curve(checkpoint_dir: Path) -> list[float]:
     """Validation ADE per epoch (px), as the folder's `last.pt` recorded it: the curve the kept
     epoch was selected on (its minimum is `best_val_ade`)."""
     return [float(epoch["val_ade"]) for epoch in fit_result_from(checkpoint_dir).history]
-
-
-def long_term_runs(checkpoints: Path, horizons: list[int], main_seed: int,
-                   extra_seeds: list[int]) -> list[tuple[str, int, int, Path]]:
-    """Every trained long-term baseline run as (model, horizon, training seed, checkpoint folder):
-    `<model>_tf<H>` for the main seed (stage `train_baseline`), `seeds/<model>_tf<H>_seed<S>` for
-    the extra ones (`train_baseline_seed`), the folders of dvc.yaml's `epoch_selection` deps."""
-    runs = []
-    for model in baselines.TRAINABLE:
-        for horizon in horizons:
-            runs.append((model, horizon, main_seed, Path(checkpoints) / f"{model}_tf{horizon}"))
-            runs += [(model, horizon, seed, Path(checkpoints) / "seeds" / f"{model}_tf{horizon}_seed{seed}")
-                     for seed in extra_seeds]
-    return runs
-
-
-def epoch_selection_study(runs: list[tuple[str, int, int, Path]], n_splits: int, seed: int) -> dict:
-    """The split-half study of every trained run (model, horizon, training seed, checkpoint folder):
-    per run, each rule's held-out validation ADE (`epoch_selection.split_half_study`) and the epoch
-    it keeps on the whole validation set; pooled, each rule against `raw`
-    (`epoch_selection.summarise`, whose `recommended` rule is the one to score with)."""
-    records = []
-    for model, horizon, train_seed, folder in runs:
-        result = fit_result_from(folder)
-        if not result.history or "val_window_ade" not in result.history[0]:
-            raise ValueError(f"{folder}/last.pt: no per-window validation errors (trained before they "
-                             "were recorded): re-run its training stage")
-        curves = result.window_curves()  # (E, N)
-        study = epoch_selection.split_half_study(curves, n_splits, seed)
-        records.append({"model": model, "horizon": horizon, "seed": train_seed, **study,
-                        "kept_epochs": dict(result.selected)})
-    return {"rules": dict(epoch_selection.RULES), "n_splits": n_splits, "seed": seed,
-            "summary": epoch_selection.summarise(records), "runs": records}
 
 
 def training_seed(checkpoint_dir: Path) -> int:

@@ -1,5 +1,4 @@
-"""Which epoch a baseline keeps: selection rules over its validation curve, and the split-half study
-that chooses between them on validation windows alone.
+"""Which epoch a baseline keeps: selection rules over its validation curve.
 
 On the long horizons the validation sets are tiny (15-21 windows at 40-60 s), so the epoch with the
 lowest validation ADE is partly chosen by which few windows happen to be there: re-trained on
@@ -12,10 +11,8 @@ averages that luck over neighbouring epochs. Rules (`RULES`, each a half-width h
   complete), so a rule's choice never changes once made and training can keep the weights while it
   still has them (`pipeline.harness.baselines.common.run_training` keeps one `best` file per rule).
 
-The study (`split_half_study`): for one training run's per-window validation curves (epochs x
-windows), split the windows at random into halves A and B, let each rule choose an epoch on A and
-score that epoch on B (and the other way round), many times over. A rule whose choice holds up on
-windows it did not see is less noisy; the test windows are never read.
+Which rule to score with is chosen by the split-half study of stage `epoch_selection`
+(`pipeline.studies.epoch_selection`), on validation windows alone.
 """
 
 from __future__ import annotations
@@ -55,57 +52,3 @@ def selected_epoch(curve: np.ndarray, rule: str) -> int:
     epochs = candidates(len(curve), width)
     values = [centred_mean(curve, epoch, width) for epoch in epochs]
     return epochs[int(np.argmin(values))]
-
-
-def split_half_study(window_curves: np.ndarray, n_splits: int, seed: int,
-                     rules: tuple[str, ...] = tuple(RULES)) -> dict:
-    """Held-out validation ADE of each rule's choice, averaged over `n_splits` random halvings of the
-    windows (each half chooses once and is scored on the other).
-
-    window_curves: (E, N) validation ADE of each window after each epoch, N >= 2. Returns
-    {"held_out": {rule: mean ADE on the half that did not choose}, "oracle": mean of the held-out
-    half's own lowest epoch (the floor), "n_windows": N, "n_epochs": E, "n_splits": n_splits}.
-    """
-    curves = np.asarray(window_curves, dtype=float)
-    if curves.ndim != 2 or curves.shape[1] < 2 or curves.shape[0] < 1:
-        raise ValueError(f"need (epochs, windows) validation errors with >= 2 windows, got {curves.shape}")
-    rng = np.random.default_rng(seed)
-    n_windows = curves.shape[1]
-    held_out = {rule: [] for rule in rules}
-    oracle = []
-    for _ in range(n_splits):
-        order = rng.permutation(n_windows)
-        halves = (order[:n_windows // 2], order[n_windows // 2:])
-        for choosing, scoring in (halves, halves[::-1]):
-            choosing_curve = curves[:, choosing].mean(axis=1)  # (E,)
-            scoring_curve = curves[:, scoring].mean(axis=1)  # (E,)
-            oracle.append(scoring_curve.min())
-            for rule in rules:
-                held_out[rule].append(scoring_curve[selected_epoch(choosing_curve, rule)])
-    return {"held_out": {rule: float(np.mean(values)) for rule, values in held_out.items()},
-            "oracle": float(np.mean(oracle)), "n_windows": n_windows, "n_epochs": curves.shape[0],
-            "n_splits": n_splits}
-
-
-def summarise(runs: list[dict], rules: tuple[str, ...] = tuple(RULES)) -> dict:
-    """Pool per-run studies: for each rule the mean ratio of its held-out ADE to `raw`'s (below 1:
-    better than the authors' rule) and how many runs it beats `raw` on, overall and per horizon;
-    `recommended` is the rule with the lowest mean ratio. Each run: a `split_half_study` result
-    with its "model", "horizon" and "seed"."""
-    if not runs:
-        raise ValueError("no training runs to pool")
-
-    def pooled(group: list[dict]) -> dict:
-        out = {}
-        for rule in rules:
-            ratios = np.array([run["held_out"][rule] / run["held_out"]["raw"] for run in group])
-            out[rule] = {"mean_ratio_to_raw": float(ratios.mean()),
-                         "runs_better_than_raw": int((ratios < 1 - 1e-12).sum()),
-                         "runs_worse_than_raw": int((ratios > 1 + 1e-12).sum()), "runs": len(group)}
-        return out
-
-    overall = pooled(runs)
-    horizons = sorted({run["horizon"] for run in runs})
-    return {"overall": overall,
-            "per_horizon": {str(h): pooled([run for run in runs if run["horizon"] == h]) for h in horizons},
-            "recommended": min(rules, key=lambda rule: (overall[rule]["mean_ratio_to_raw"], RULES[rule]))}

@@ -30,7 +30,7 @@ results is shown as its reason):
 - `ynet_horizons/tf<H>.json`: {"main": {...}} or {"not_run_reason": "..."} (t_f = 30: ynet_eval.json);
   `baselines/<model>_tf<H>.json`: {"ade": {"mean", "std"}, "fde", ..., "rounds", "k", "horizon"};
   `baselines/pecnet_ka.json`: [{"k_a", "k", "ade": {"mean", "std"}, "fde"}]
-- `baseline_seed_spread.json` (`pipeline.harness.seed_spread`): {"extra_seeds", "ynet_extra_seeds",
+- `baseline_seed_spread.json` (`pipeline.studies.seed_spread`): {"extra_seeds", "ynet_extra_seeds",
   "entries": [{"model", "horizon", "evaluation", "over_training_seeds": {"ade": {"mean", "std"}, ...},
   "main_round_std": {"ade", "fde"}, "per_seed": [{"seed", "ade", "fde", "best_epoch",
   "best_val_ade"}]}]}; an entry with "not_run_reason" (Y-net where the profile trains no extra seed)

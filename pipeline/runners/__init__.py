@@ -1,3 +1,3 @@
 """Runners: the training loops and scoring of the learned models: Y-net training and scoring (the
 main / ablation / K_a evaluation sequence written once), the scene U-Net's training, and the
-short-term, horizon and inD benchmarks built from them."""
+short-term and inD benchmarks built from them."""

@@ -1,6 +1,6 @@
 """Stage `baseline_seed_spread`: per trained long-term baseline and horizon, and for the main Y-net,
 the mean and spread of ADE / FDE over training seeds beside the main model's spread over evaluation
-rounds (`pipeline.harness.seed_spread`), with every seed's values and kept epoch; Y-net's entry
+rounds (`pipeline.studies.seed_spread`), with every seed's values and kept epoch; Y-net's entry
 says why it was not run where the profile trains no extra Y-net seed.
 
 A stage rather than a computation inside the report: the numbers are a result of their own that a
@@ -23,7 +23,7 @@ from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.windows import WindowParams
 from pipeline.config.ynet import ynet_main_seed
 from pipeline.config.ynet_seeds import YnetSeedsParams, ynet_seed_slots
-from pipeline.harness.seed_spread import YnetSeeds, seed_spread
+from pipeline.studies.seed_spread import YnetSeeds, seed_spread
 from pipeline.io import exit_on_bad_intermediate, write_json
 
 

@@ -2,7 +2,7 @@
 
 On the videos with raw annotations, per horizon: windows from the full raw pieces against windows
 from release-style chains of the same pieces, their counts and constant-velocity ADE / FDE
-(`pipeline.harness.chain_bias`). Params: `windows`.
+(`pipeline.studies.chain_bias`). Params: `windows`.
 
     python -m pipeline.stages.chain_bias --tracks data/tracks/sdd.parquet --out metrics/chain_bias.json
 """
@@ -16,7 +16,7 @@ import pandas as pd
 
 from pipeline.config.loading import load_section, read_params
 from pipeline.config.windows import WindowParams
-from pipeline.harness.chain_bias import chain_bias
+from pipeline.studies.chain_bias import chain_bias
 from pipeline.io import write_json
 
 

@@ -4,7 +4,7 @@ judged on validation windows alone.
 Every trained long-term baseline (S-GAN and PECNet, every horizon, the main training seed and the
 extra ones) recorded its per-window validation ADE after each epoch. For each run the study halves
 the validation windows at random, lets each rule (`raw`, `mean3`, ...) choose an epoch on one half
-and scores it on the other (`pipeline.harness.epoch_selection`), then pools the runs: per rule the
+and scores it on the other (`pipeline.studies.epoch_selection`), then pools the runs: per rule the
 mean ratio of its held-out ADE to `raw`'s, overall and per horizon, and the rule with the lowest
 (`summary.recommended`), which `evaluate_baseline.epoch_selection` is set to. The test windows are
 never read. Params: `epoch_selection_study`, `windows.horizons`, `train_baseline.seed`,
@@ -23,8 +23,8 @@ from pipeline.config.epoch_selection_study import EpochSelectionStudyParams
 from pipeline.config.loading import load_section, read_params
 from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.config.windows import WindowParams
-from pipeline.harness.baseline_runs import epoch_selection_study, long_term_runs
 from pipeline.io import write_json
+from pipeline.studies.epoch_selection import epoch_selection_study, long_term_runs
 
 
 def main(argv: list[str] | None = None) -> None:

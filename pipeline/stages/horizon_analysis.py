@@ -5,8 +5,8 @@ true goal, every stored model's scores on its own windows; one population (the l
 test windows truncated at every horizon) scored with the longest horizon's stored predictions over
 their first t seconds and with each horizon's own Y-net run on the truncated windows (one round,
 the sampling its evaluation stored; a horizon the profile does not train says so); a leak check
-over every window table; Y-net's validation curves (`pipeline.harness.horizon_analysis`,
-`pipeline.runners.horizon_reruns`). Writes the record and two figures (`pipeline.report.horizons`).
+over every window table; Y-net's validation curves (`pipeline.studies.horizon_analysis`,
+`pipeline.studies.horizon_reruns`). Writes the record and two figures (`pipeline.report.horizons`).
 Params: `windows.horizons`, `windows.n_past`, `windows.release_horizon`, `eval.<profile>`'s
 `batch_size`, `chunk_size`, `bf16`; `models` (the registered models' labels and colours).
 
@@ -31,11 +31,11 @@ import pandas as pd
 from pipeline.config.eval import EvalParams
 from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.windows import WindowParams
-from pipeline.harness import horizon_analysis as analysis
+from pipeline.studies import horizon_analysis as analysis
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.models import all_models, load_models
 from pipeline.report.horizons import draw_figures, print_summary
-from pipeline.runners.horizon_reruns import own_horizon_ynet
+from pipeline.studies.horizon_reruns import own_horizon_ynet
 
 
 def checkpoint_dirs(paths: list[Path]) -> dict[int, Path]:

@@ -4,7 +4,7 @@ on the TEST set; never a headline number.
 For every horizon of `pecnet_test_selection.horizons`, PECNet is retrained exactly as
 `train_baseline@pecnet-<t_f>` trains it, in a temporary folder (the stage's checkpoints are never
 touched), and after every epoch the test windows are scored (best of K, one seeded sampling) under
-our protocol and PECNet's (`pipeline.harness.pecnet_test_selection`). The record: per epoch the
+our protocol and PECNet's (`pipeline.studies.pecnet_test_selection`). The record: per epoch the
 validation ADE and both protocols' test ADE / FDE; the epoch kept on validation
 (`evaluate_baseline.epoch_selection`) and its test numbers; upstream's best test ADE and best test
 FDE over epochs, each with its epoch; whether the retrain kept `train_baseline`'s epoch.
@@ -23,7 +23,7 @@ import tempfile
 from pathlib import Path
 
 from pipeline.config.loading import read_params
-from pipeline.harness.pecnet_test_selection import diagnose, summary_line
+from pipeline.studies.pecnet_test_selection import diagnose, summary_line
 from pipeline.io import write_json
 
 

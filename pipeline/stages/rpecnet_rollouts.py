@@ -2,7 +2,7 @@
 out in each way of `rpecnet_rollouts.variants` (`pipeline.harness.baselines.rpecnet.VARIANTS`),
 scored on the validation windows of every horizon table of `rpecnet_rollouts.horizons`; the
 variant whose FDE / ADE is the nearest to the paper's R-PECNet (`target_fde_over_ade`) is chosen
-there and scored alone on the test windows (`pipeline.harness.rpecnet_rollouts`). Params:
+there and scored alone on the test windows (`pipeline.studies.rpecnet_rollouts`). Params:
 `rpecnet_rollouts`, `evaluate_baseline.epoch_selection`, `windows.n_past`, `runtime.device`.
 
     python -m pipeline.stages.rpecnet_rollouts --horizon-windows data/horizon_windows \
@@ -15,7 +15,7 @@ import argparse
 from pathlib import Path
 
 from pipeline.config.loading import read_params
-from pipeline.harness.rpecnet_rollouts import rollouts_record
+from pipeline.studies.rpecnet_rollouts import rollouts_record
 from pipeline.io import write_json
 
 

@@ -4,7 +4,7 @@ PECNet's epoch selection on the TEST set, on one ETH/UCY fold; never a headline 
 PECNet is retrained as `train_short_term_baseline@<fold>-pecnet` trains it, in a temporary folder
 (the stage's checkpoints are never touched), and after every epoch the test windows are scored
 under our protocol and PECNet's with the K and seed of the headline's first scoring round
-(`pipeline.runners.short_term_test_selection`). The record: per epoch the validation ADE and both
+(`pipeline.studies.short_term_test_selection`). The record: per epoch the validation ADE and both
 protocols' test ADE / FDE; the epoch kept on validation and its test numbers (checked against the
 headline's training and first round); upstream's best test ADE and best test FDE over epochs.
 A compat switch: on a fold not in `short_term_pecnet_test_selection.folds` the record says it is
@@ -33,8 +33,8 @@ from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import TRAINING, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
-from pipeline.harness.pecnet_test_selection import summary_line
-from pipeline.runners.short_term_test_selection import (fold_record, switched_off_record,
+from pipeline.studies.pecnet_test_selection import summary_line
+from pipeline.studies.short_term_test_selection import (fold_record, switched_off_record,
                                                         switched_on)
 
 

@@ -33,7 +33,7 @@ from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.config.short_term_pecnet_test_selection import ShortTermPecnetTestSelectionParams
 from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.device import CPU, describe
-from pipeline.harness.pecnet_test_selection import (LABEL, PROTOCOLS, compat_summary,
+from pipeline.studies.pecnet_test_selection import (LABEL, PROTOCOLS, compat_summary,
                                                     retrain_scoring_splits)
 from pipeline.runners.short_term import sample_windows
 from pipeline.runners.short_term_baselines import baseline_config

@@ -1,6 +1,6 @@
 """A labelled compat diagnostic, never a headline number: how far upstream PECNet's test-set epoch
 selection moves its scores (stages `pecnet_test_selection`, long-term, and
-`short_term_pecnet_test_selection`, ETH/UCY: `pipeline.runners.short_term_test_selection`).
+`short_term_pecnet_test_selection`, ETH/UCY: `pipeline.studies.short_term_test_selection`).
 
 Upstream's training loop scores the TEST set after every epoch and reports the lowest test ADE and,
 separately, the lowest test FDE seen over all epochs (each possibly from a different epoch). Our
