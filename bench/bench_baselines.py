@@ -28,7 +28,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import common  # noqa: E402
-from pipeline.harness import baselines  # noqa: E402
+from pipeline.runners import baselines  # noqa: E402
 from pipeline.config.loading import load_profile, read_params  # noqa: E402
 from pipeline.data.window_table import WindowArrays  # noqa: E402
 from pipeline.models import window_set  # noqa: E402

@@ -37,7 +37,7 @@ from pipeline.config.windows import WindowParams  # noqa: E402
 from pipeline.config.ynet import YnetSettings  # noqa: E402
 from pipeline.config.ynet_horizons import HorizonParams  # noqa: E402
 from pipeline.config.ynet_seeds import YnetSeedsParams  # noqa: E402
-from pipeline.harness import baselines  # noqa: E402
+from pipeline.runners import baselines  # noqa: E402
 
 RELEASE_TABLE = "windows/release_tf30.parquet"
 LABEL_INDEX = "labels/index.json"

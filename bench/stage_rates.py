@@ -29,7 +29,7 @@ from pipeline.config.loading import load_section  # noqa: E402
 from pipeline.config.segmentation import SegmentationParams  # noqa: E402
 from pipeline.config.train_baseline import TrainBaselineParams  # noqa: E402
 from pipeline.device import synchronize  # noqa: E402
-from pipeline.harness import baselines  # noqa: E402
+from pipeline.runners import baselines  # noqa: E402
 from pipeline.runners import segmentation  # noqa: E402
 
 SCENE_HW = (512, 384)  # a downsampled SDD scene (bench/bench_segmentation.py's synthetic size)

@@ -15,7 +15,7 @@ import yaml
 from pipeline.config.baseline_seeds import BaselineSeedsParams
 from pipeline.config.loading import ParamsError, from_dict
 from pipeline.studies import seed_spread
-from pipeline.harness.baselines import common
+from pipeline.runners.baselines import common
 from pipeline.io import IntermediateError
 from pipeline.model_list import BY_NAME
 from pipeline.stages import (baseline_seed_spread, evaluate_baseline, evaluate_baseline_seed,

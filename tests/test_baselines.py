@@ -14,13 +14,13 @@ import torch
 import yaml
 
 from pipeline import checkpoints
-from pipeline.harness import baseline_runs, baselines
+from pipeline.runners import baseline_runs, baselines
 from pipeline.stages import (evaluate_baseline, evaluate_pecnet_ka, evaluate_rpecnet, fit_model,
                              predict_model, train_baseline)
-from pipeline.harness.baselines import common
-from pipeline.harness.baselines.pecnet import Pecnet, reversed_windows
-from pipeline.harness.baselines.rpecnet import RecurrentPecnet, rollout
-from pipeline.harness.baselines.sgan import SocialGan
+from pipeline.runners.baselines import common
+from pipeline.runners.baselines.pecnet import Pecnet, reversed_windows
+from pipeline.runners.baselines.rpecnet import RecurrentPecnet, rollout
+from pipeline.runners.baselines.sgan import SocialGan
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde

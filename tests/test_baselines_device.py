@@ -17,12 +17,12 @@ import yaml
 
 from pipeline.stages import train_baseline
 from pipeline import checkpoints
-from pipeline.harness.baselines import common
-from pipeline.harness.baselines import pecnet as pecnet_module
-from pipeline.harness.baselines import sgan as sgan_module
-from pipeline.harness.baselines.pecnet import Pecnet
-from pipeline.harness.baselines.rpecnet import RecurrentPecnet
-from pipeline.harness.baselines.sgan import SocialGan
+from pipeline.runners.baselines import common
+from pipeline.runners.baselines import pecnet as pecnet_module
+from pipeline.runners.baselines import sgan as sgan_module
+from pipeline.runners.baselines.pecnet import Pecnet
+from pipeline.runners.baselines.rpecnet import RecurrentPecnet
+from pipeline.runners.baselines.sgan import SocialGan
 from pipeline.device import generator as seeded_generator
 from pipeline.models import window_set
 from pipeline.models.constant_velocity import ConstantVelocity

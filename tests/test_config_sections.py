@@ -38,7 +38,7 @@ CONFIG = REPO / "pipeline" / "config"
 SHARED = {"__init__", "loading"}  # no section: the package's docstring and what every section uses
 
 MODEL_FILE = "a Y-net model file's settings (YnetSettings.from_saved, runners.ynet_scoring)"
-CHECKPOINT = "a trained baseline's checkpoint settings (<Model>.load, harness.baselines)"
+CHECKPOINT = "a trained baseline's checkpoint settings (<Model>.load, runners.baselines)"
 SLOT_FILE = "its slot's scoring settings, data/ynet_slot_scoring (slot_scoring.read_slot_scoring)"
 SHORT_TERM_SAMPLING = ("built from short_term_models.<profile> (runners.short_term.ynet_options, "
                        "ShortTermModelsParams.eval_params)")
@@ -57,9 +57,9 @@ FROM_ELSEWHERE: dict[str, dict[str, str]] = {
        for section in ("ttst", "cws", "eval")},
 }
 
-BASELINE_RUNS = "harness.baseline_runs: training and scoring of the long-term baselines in one module"
+BASELINE_RUNS = "runners.baseline_runs: training and scoring of the long-term baselines in one module"
 MODEL_RUNS = "harness.model_runs: fitting and predicting a registered model in one module"
-REGISTRY = "harness.baselines: its registry imports every baseline, so both settings classes"
+REGISTRY = "runners.baselines: its registry imports every baseline, so both settings classes"
 SHORT_TERM = "runners.short_term: Y-net's and the baselines' short-term runs in one module"
 SHORT_TERM_MODELS = "config.short_term_models: its eval_params builds the eval section's class"
 IND = "runners.ind: inD's segmentation, Y-net and baselines, training and scoring, in one module"

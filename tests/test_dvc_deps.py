@@ -193,8 +193,8 @@ def test_every_path_on_the_command_line_is_a_dep_or_an_output(stage):
 def test_the_closure_follows_imports_through_packages():
     """A check of the checker: train_baseline reaches every model through the registry."""
     closure = code_closure("pipeline.stages.train_baseline")
-    assert {"pipeline/harness/baselines/__init__.py", "pipeline/harness/baselines/sgan.py",
-            "pipeline/harness/baselines/pecnet.py", "pipeline/device.py"} <= closure
+    assert {"pipeline/runners/baselines/__init__.py", "pipeline/runners/baselines/sgan.py",
+            "pipeline/runners/baselines/pecnet.py", "pipeline/device.py"} <= closure
     assert "pipeline/__init__.py" not in closure  # a docstring only
     assert "pipeline/stages/__init__.py" not in closure
     assert "ynet/model.py" in code_closure("pipeline.stages.evaluate_ynet")

@@ -14,10 +14,12 @@ import torch
 import yaml
 
 from pipeline.config.loading import read_params
-from pipeline.harness import baseline_runs, epoch_selection
-from pipeline.harness.baselines import common
-from pipeline.harness.baselines.pecnet import Pecnet
-from pipeline.harness.baselines.sgan import SocialGan
+from pipeline.harness import epoch_selection
+from pipeline.runners import baseline_runs
+from pipeline.runners.baselines import common
+from pipeline.runners.baselines.pecnet import Pecnet
+from pipeline.runners.baselines.sgan import SocialGan
+from pipeline.runners.baselines.training import run_training
 from pipeline.harness.epoch_selection import centred_mean, selected_epoch
 from pipeline.stages import epoch_selection as stage
 from pipeline.studies.epoch_selection import long_term_runs, split_half_study, summarise
@@ -120,7 +122,7 @@ def scripted_run(folder, epochs: int) -> common.FitResult:
         epoch_of["next"] = epoch
         return [np.array([0])]
 
-    return common.run_training(
+    return run_training(
         name="scripted", modules={"net": net}, optimizers={"net": optimizer},
         epoch_batches=epoch_batches, train_batch=train_batch, loss_names=("loss",), validate=validate,
         epochs=epochs, config={"epochs": epochs}, meta={"n_past": 1, "n_future": 1, "seed": 0},

@@ -103,7 +103,7 @@ def floor_breaches(modules: dict[str, set[str]]) -> list[str]:
 
 def on_cycles(modules: dict[str, set[str]]) -> list[str]:
     """Modules that reach themselves through imports. A module naming its own package (`from
-    pipeline.harness.baselines import common` in `baselines.sgan`) only reaches a sibling."""
+    pipeline.runners.baselines import common` in `baselines.sgan`) only reaches a sibling."""
     edges = {m: {t for t in (module_of(n, modules) for n in names)
                  if t in modules and t != m and not m.startswith(t + ".")}
              for m, names in modules.items()}

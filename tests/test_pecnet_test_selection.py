@@ -18,8 +18,8 @@ from pipeline import checkpoints
 from pipeline.config.loading import from_dict, read_params
 from pipeline.config.pecnet_test_selection import PecnetTestSelectionParams
 from pipeline.studies import pecnet_test_selection as diagnostic
-from pipeline.harness.baselines import common
-from pipeline.harness.baselines.pecnet import Pecnet
+from pipeline.runners.baselines import common
+from pipeline.runners.baselines.pecnet import Pecnet
 from pipeline.report import compat
 from pipeline.stages import evaluate_baseline, pecnet_test_selection, train_baseline
 from tests.test_baselines import N_PAST, TINY_PECNET, straight_tracks, window_table

@@ -10,12 +10,12 @@ from pipeline.config.eval import EvalParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import generator
-from pipeline.harness.baselines import Baseline
+from pipeline.runners.baselines import Baseline
 from pipeline.harness.model_runs import score_rounds
 from pipeline.models import window_set
-from pipeline.harness.baselines.pecnet import Pecnet
-from pipeline.harness.baselines.rpecnet import RecurrentPecnet
-from pipeline.harness.baselines.sgan import SocialGan
+from pipeline.runners.baselines.pecnet import Pecnet
+from pipeline.runners.baselines.rpecnet import RecurrentPecnet
+from pipeline.runners.baselines.sgan import SocialGan
 from pipeline.runners.segmentation import fingerprint
 from pipeline.runners.segmentation import train as train_unet
 from pipeline.runners.ynet_scoring import evaluation_sequence, load_model

@@ -1,4 +1,4 @@
-"""R-PECNet's roll-out variants (`pipeline.harness.baselines.rpecnet.VARIANTS`) and the diagnostic
+"""R-PECNet's roll-out variants (`pipeline.runners.baselines.rpecnet.VARIANTS`) and the diagnostic
 stage `rpecnet_rollouts`: each variant's shape and what sets it apart (on stand-in models whose
 calls are recorded, and on a small untrained PECNet), determinism under a seeded generator, the
 default roll-out byte for byte as it was before the variants existed, the choice rule on
@@ -16,10 +16,10 @@ import torch
 import yaml
 
 from pipeline.studies import rpecnet_rollouts as rr
-from pipeline.harness.baselines import common
+from pipeline.runners.baselines import common
 from pipeline.models.constant_velocity import extrapolate
-from pipeline.harness.baselines.pecnet import Pecnet, make_batch
-from pipeline.harness.baselines.rpecnet import (INDEPENDENT, MEAN_FED_BACK, ORIGINAL_FRAME,
+from pipeline.runners.baselines.pecnet import Pecnet, make_batch
+from pipeline.runners.baselines.rpecnet import (INDEPENDENT, MEAN_FED_BACK, ORIGINAL_FRAME,
                                                 SHARED_LATENT, VARIANTS, RecurrentPecnet, rollout)
 from pipeline.data.window_table import load_windows, select_split
 from pipeline.device import to_device

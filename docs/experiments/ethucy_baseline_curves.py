@@ -24,7 +24,7 @@ from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.harness.baselines.common import fit_result_from
+from pipeline.runners.baselines.common import fit_result_from
 from pipeline.runners.short_term import train_baseline
 from pipeline.runners.short_term_baselines import baseline_config
 

@@ -29,7 +29,7 @@ from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.harness.baselines.common import BEST, load_checkpoint
+from pipeline.runners.baselines.common import BEST, load_checkpoint
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import PredictionRounds, read_prediction_rounds
 from pipeline.harness.scoring import best_endpoint_ade

@@ -49,10 +49,11 @@ from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import load_windows, select_split
 from pipeline.device import generator as seeded_generator
 from pipeline.device import TRAINING, select_device
-from pipeline.harness import baselines, epoch_selection
-from pipeline.harness.baselines import common
-from pipeline.harness.baseline_runs import model_config, train
-from pipeline.harness.baselines.common import fit_result_from, load_checkpoint
+from pipeline.harness import epoch_selection
+from pipeline.runners import baselines
+from pipeline.runners.baselines import training
+from pipeline.runners.baseline_runs import model_config, train
+from pipeline.runners.baselines.common import fit_result_from, load_checkpoint
 from pipeline.harness.metrics import window_errors
 from pipeline.io import write_json
 from pipeline.studies.epoch_selection import split_half_study
@@ -80,9 +81,9 @@ def val_scores(model: str, weights: dict, config, val, n_past: int, n_future: in
 
 
 def run_identity(config, seed: int, arrays) -> dict:
-    """What `common.run_training` requires a `last.pt` to match before it continues it (the config
+    """What `training.run_training` requires a `last.pt` to match before it continues it (the config
     up to `epochs`, the data and seed, the selection rules): as that function builds it."""
-    return {**{k: v for k, v in dataclasses.asdict(config).items() if k not in common.RESUMABLE_CHANGES},
+    return {**{k: v for k, v in dataclasses.asdict(config).items() if k not in training.RESUMABLE_CHANGES},
             "data_fingerprint": checkpoints.run_digest(str(seed), select_split(arrays, "train"),
                                                        select_split(arrays, "val")),
             "selection_rules": dict(epoch_selection.RULES)}

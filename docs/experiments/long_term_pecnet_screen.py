@@ -18,7 +18,7 @@ ADE and FDE per sigma and round.
 `data/horizon_windows/tf<t_f>.parquet`) with only `kl_weight` (and `--data-scale`, `--epochs` if
 given) changed, into a fresh folder `<out>`, and writes `<out>.json` with the validation curve and
 the likelihood width sigma_px = sqrt(batch_size * kl_weight) / data_scale
-(`pipeline.harness.baselines.pecnet`'s "Loss balance").
+(`pipeline.runners.baselines.pecnet`'s "Loss balance").
 """
 
 from __future__ import annotations
@@ -38,9 +38,9 @@ from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import load_windows, select_split
 from pipeline.device import CPU
 from pipeline.device import generator as seeded_generator
-from pipeline.harness.baseline_runs import model_config, train
-from pipeline.harness.baselines.common import fit_result_from
-from pipeline.harness.baselines.pecnet import Pecnet
+from pipeline.runners.baseline_runs import model_config, train
+from pipeline.runners.baselines.common import fit_result_from
+from pipeline.runners.baselines.pecnet import Pecnet
 from pipeline.harness.metrics import window_errors
 from pipeline.io import write_json
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 @dataclass
 class PecnetConfig:
     """Section `pecnet.<profile>` of params.yaml: PECNet's model and training settings
-    (`pipeline.harness.baselines.pecnet`)."""
+    (`pipeline.runners.baselines.pecnet`)."""
 
     epochs: int = 650
     """Training epochs; the best on val is kept."""

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 @dataclass(frozen=True)
 class RpecnetRolloutsParams:
     """Section `rpecnet_rollouts`: the diagnostic stage `rpecnet_rollouts`, which rolls the
-    t_f = 5 PECNet out in several ways (`pipeline.harness.baselines.rpecnet.VARIANTS`) to see
+    t_f = 5 PECNet out in several ways (`pipeline.runners.baselines.rpecnet.VARIANTS`) to see
     which of them gives the compounding error of the paper's R-PECNet. Never the headline."""
 
     variants: list[str] = field(default_factory=lambda: [

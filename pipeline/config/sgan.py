@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 @dataclass
 class SganConfig:
     """Section `sgan.<profile>` of params.yaml: S-GAN's model and training settings
-    (`pipeline.harness.baselines.sgan`)."""
+    (`pipeline.runners.baselines.sgan`)."""
 
     epochs: int = 200
     """Training epochs (passes over the training windows); the best on val is kept."""

@@ -9,7 +9,7 @@ averages that luck over neighbouring epochs. Rules (`RULES`, each a half-width h
 - `mean3`, `mean5`, `mean7`: the epoch whose centred mean over 2h + 1 epochs is lowest. The window
   is cut short at the first epoch; the last h epochs are never candidates (their window is not yet
   complete), so a rule's choice never changes once made and training can keep the weights while it
-  still has them (`pipeline.harness.baselines.common.run_training` keeps one `best` file per rule).
+  still has them (`pipeline.runners.baselines.training.run_training` keeps one `best` file per rule).
 
 Which rule to score with is chosen by the split-half study of stage `epoch_selection`
 (`pipeline.studies.epoch_selection`), on validation windows alone.

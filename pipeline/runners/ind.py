@@ -54,8 +54,8 @@ from pipeline.config.ynet import YnetSettings
 from pipeline.data.semantic_maps import iou_summary, predicted_labels, resize_probabilities
 from pipeline.data.window_table import WindowArrays, select_split
 from pipeline.device import CPU
-from pipeline.harness import baseline_runs, baselines
-from pipeline.harness.baselines.rpecnet import RecurrentPecnet
+from pipeline.runners import baseline_runs, baselines
+from pipeline.runners.baselines.rpecnet import RecurrentPecnet
 from pipeline.harness.model_runs import score_rounds, split_to_score
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import atomic_dir, check_array, read_npz, write_npz

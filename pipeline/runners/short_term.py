@@ -62,7 +62,7 @@ from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays, subset
 from pipeline.data.ynet_data import SceneWindows
 from pipeline.device import CPU, generator
-from pipeline.harness import baselines
+from pipeline.runners import baselines
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import IntermediateError

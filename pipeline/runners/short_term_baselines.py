@@ -23,7 +23,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.harness.baseline_runs import model_config
+from pipeline.runners.baseline_runs import model_config
 
 SECTION = "short_term_baselines"
 

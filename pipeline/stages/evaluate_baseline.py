@@ -4,7 +4,7 @@ Loads the model (`sgan` / `pecnet` from the checkpoint folder trained for this h
 the t_f = 5 PECNet's), draws K samples per window of the
 chosen split in `rounds` seeded rounds, and writes best-of-K ADE / FDE, independent and joint, as
 mean and spread over rounds, with the training facts the checkpoint records
-(`pipeline.harness.baseline_runs.score_split`), and every round's predictions in original pixels
+(`pipeline.runners.baseline_runs.score_split`), and every round's predictions in original pixels
 (`pipeline.harness.predictions`; one folder per window table: `tf<H>/` for the horizon tables).
 `evaluate_rpecnet` is this stage for one model (constant velocity runs through `predict_model`). Params:
 `evaluate_baseline`, `windows.n_past`, `runtime.device`.
@@ -21,8 +21,8 @@ import argparse
 from pathlib import Path
 
 from pipeline.config.loading import read_params
-from pipeline.harness import baselines
-from pipeline.harness.baseline_runs import score_to_file
+from pipeline.runners import baselines
+from pipeline.runners.baseline_runs import score_to_file
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -14,7 +14,7 @@ between this record and `metrics/baselines/<model>_tf<H>.json`; the record adds 
 from __future__ import annotations
 
 from pipeline.config.loading import read_params
-from pipeline.harness.baseline_runs import run_arguments, score_to_file, training_seed
+from pipeline.runners.baseline_runs import run_arguments, score_to_file, training_seed
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -3,7 +3,7 @@
 The paper gives PECNet 20 x K_a samples per window for each K_a of Y-net's K_e = 20 curve. The K_a
 values are those of Y-net's own grid (`eval.<profile>.ka_grid_k_a`), so the two curves share their
 x values; K is `evaluate_baseline.k` x K_a, scored with the shared metric over
-`evaluate_baseline.rounds` rounds (`pipeline.harness.baseline_runs.ka_rows`). Params:
+`evaluate_baseline.rounds` rounds (`pipeline.runners.baseline_runs.ka_rows`). Params:
 `evaluate_baseline`, `eval.<profile>.ka_grid_k_a`, `profile`, `windows.n_past`, `runtime.device`.
 
     python -m pipeline.stages.evaluate_pecnet_ka --table data/horizon_windows/tf30.parquet \
@@ -24,8 +24,8 @@ from pipeline.config.runtime import RuntimeParams
 from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import load_windows
 from pipeline.device import SCORING, describe, select_device
-from pipeline.harness import baselines
-from pipeline.harness.baseline_runs import ka_rows
+from pipeline.runners import baselines
+from pipeline.runners.baseline_runs import ka_rows
 from pipeline.harness.model_runs import split_to_score
 from pipeline.io import write_json
 

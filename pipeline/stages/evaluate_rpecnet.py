@@ -14,7 +14,7 @@ import argparse
 from pathlib import Path
 
 from pipeline.config.loading import read_params
-from pipeline.harness.baseline_runs import score_to_file
+from pipeline.runners.baseline_runs import score_to_file
 
 MODEL = "rpecnet"
 

@@ -1,5 +1,5 @@
 """Stage `rpecnet_rollouts`: a labelled diagnostic, never the headline. The t_f = 5 PECNet rolled
-out in each way of `rpecnet_rollouts.variants` (`pipeline.harness.baselines.rpecnet.VARIANTS`),
+out in each way of `rpecnet_rollouts.variants` (`pipeline.runners.baselines.rpecnet.VARIANTS`),
 scored on the validation windows of every horizon table of `rpecnet_rollouts.horizons`; the
 variant whose FDE / ADE is the nearest to the paper's R-PECNet (`target_fde_over_ade`) is chosen
 there and scored alone on the test windows (`pipeline.studies.rpecnet_rollouts`). Params:

@@ -1,7 +1,7 @@
 """Stage `train_baseline@<model>-<t_f>`: train one baseline (S-GAN or PECNet) for one horizon.
 
 Trains on the window table's `train` split, keeps the epoch with the lowest min-over-K ADE on its
-`val` split (never `test`; `pipeline.harness.baseline_runs.train_record`), and writes the
+`val` split (never `test`; `pipeline.runners.baseline_runs.train_record`), and writes the
 checkpoint folder (`best.pt`, `last.pt`; an interrupted run resumes from `last.pt`) and a JSON of
 training facts.
 SIGTERM / SIGINT or `runtime.max_minutes` save a mid-epoch checkpoint and exit 143 / 130 / 75.
@@ -16,7 +16,7 @@ Params: `train_baseline` (seed, threads), `<model>.<profile>`, `profile`, `windo
 from __future__ import annotations
 
 from pipeline.config.loading import read_params
-from pipeline.harness.baseline_runs import run_arguments, train_record
+from pipeline.runners.baseline_runs import run_arguments, train_record
 from pipeline.io import write_json
 from pipeline.preemption import exit_when_stopped
 

@@ -2,7 +2,7 @@
 horizon again with an extra training seed (`baseline_seeds.extra`), to measure how far training
 alone moves the metrics.
 
-Exactly `train_baseline` (`pipeline.harness.baseline_runs.train_record`) with `--seed` in place of
+Exactly `train_baseline` (`pipeline.runners.baseline_runs.train_record`) with `--seed` in place of
 `train_baseline.seed`: the seed sets the initial weights, the batch order, the training noise and
 latents, and the validation draws that select the epoch. The JSON of training facts also holds the
 validation curve (`val_ade_per_epoch`: the kept epoch is its minimum), so that a later change of
@@ -18,7 +18,7 @@ Params: `train_baseline.threads`, `<model>.<profile>`, `profile`, `windows.n_pas
 from __future__ import annotations
 
 from pipeline.config.loading import read_params
-from pipeline.harness.baseline_runs import run_arguments, train_record, validation_curve
+from pipeline.runners.baseline_runs import run_arguments, train_record, validation_curve
 from pipeline.io import write_json
 from pipeline.preemption import exit_when_stopped
 

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.harness.baselines import TRAINABLE
-from pipeline.harness.baselines.common import fit_result_from
+from pipeline.runners.baselines import TRAINABLE
+from pipeline.runners.baselines.common import fit_result_from
 from pipeline.harness.epoch_selection import RULES, selected_epoch
 
 

@@ -43,9 +43,9 @@ from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, TRAINING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import epoch_selection
-from pipeline.harness.baseline_runs import model_config
+from pipeline.runners.baseline_runs import model_config
 from pipeline.data.window_table import select_split
-from pipeline.harness.baselines.pecnet import Pecnet
+from pipeline.runners.baselines.pecnet import Pecnet
 from pipeline.harness.scoring import best_endpoint_ade, min_ade_fde
 
 if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)

@@ -37,7 +37,7 @@ from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import SCORING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.data.window_table import select_split
-from pipeline.harness.baselines.rpecnet import VARIANTS, RecurrentPecnet
+from pipeline.runners.baselines.rpecnet import VARIANTS, RecurrentPecnet
 from pipeline.harness.scoring import min_ade_fde
 
 MODEL = "rpecnet"

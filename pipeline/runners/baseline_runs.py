@@ -12,7 +12,7 @@ where asked, `training_facts` reads what a checkpoint folder records about its
 training. `score_to_file` is what the long-term baseline stages do: the metrics file and the file of
 every test prediction (`pipeline.harness.predictions`), or only the metrics for the extra training
 seeds (`evaluate_baseline_seed`, `evaluate_rpecnet_seed`). Checkpoints:
-`pipeline.harness.baselines.common`.
+`pipeline.runners.baselines.common`.
 Each model's settings are its config dataclass (`pipeline.config.sgan` / `.pecnet`: sections `sgan`
 / `pecnet`, one per profile), chosen by `model_config`.
 """
@@ -36,8 +36,8 @@ from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, SCORING, TRAINING, describe, select_device
-from pipeline.harness import baselines
-from pipeline.harness.baselines.common import best_path, fit_result_from, load_checkpoint
+from pipeline.runners import baselines
+from pipeline.runners.baselines.common import best_path, fit_result_from, load_checkpoint
 from pipeline.harness.model_runs import score_rounds, split_to_score
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import write_json

@@ -33,10 +33,10 @@ import torch
 
 from pipeline.device import CPU
 from pipeline.device import generator as seeded_generator
-from pipeline.harness.baselines.common import FitResult
-from pipeline.harness.baselines.pecnet import Pecnet
-from pipeline.harness.baselines.rpecnet import RecurrentPecnet
-from pipeline.harness.baselines.sgan import SocialGan
+from pipeline.runners.baselines.common import FitResult
+from pipeline.runners.baselines.pecnet import Pecnet
+from pipeline.runners.baselines.rpecnet import RecurrentPecnet
+from pipeline.runners.baselines.sgan import SocialGan
 from pipeline.models import WindowSet, window_arrays
 from pipeline.preemption import NEVER, Preemption
 

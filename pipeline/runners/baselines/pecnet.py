@@ -38,8 +38,9 @@ from torch import nn
 
 from pipeline import checkpoints
 from pipeline.config.pecnet import PecnetConfig
-from pipeline.harness.baselines import common
-from pipeline.harness.baselines.common import FitResult, as_input, mlp
+from pipeline.runners.baselines import common
+from pipeline.runners.baselines.common import FitResult, as_input, mlp
+from pipeline.runners.baselines.training import run_training
 from pipeline.device import generator as seeded_generator
 from pipeline.device import CPU, to_device
 from pipeline.harness.metrics import window_errors
@@ -187,7 +188,7 @@ class Pecnet:
             seed: int, device: torch.device = CPU, preemption: Preemption = NEVER,
             after_epoch: Callable[[Pecnet, int], None] | None = None) -> Pecnet:
         """Train on `train`, keeping the epochs the selection rules choose on `val`
-        (`common.run_training`). `after_epoch(model, epoch)`, when given, sees the model with each
+        (`training.run_training`). `after_epoch(model, epoch)`, when given, sees the model with each
         epoch's weights once it is validated (a diagnostic's per-epoch hook; None: training only)."""
         if len(train) == 0 or len(val) == 0:
             raise ValueError("PECNet needs training and validation windows")
@@ -212,7 +213,7 @@ class Pecnet:
             pred = model.predict(val, config.val_k, seeded_generator(device, seed + 1))
             return window_errors(pred, val.future).ade  # (N,)
 
-        model.fit_result = common.run_training(
+        model.fit_result = run_training(
             name=cls.name, modules={"net": model.net}, optimizers={"net": optimizer},
             epoch_batches=epoch_batches, train_batch=train_batch,
             loss_names=("loss_endpoint", "loss_kl", "loss_path"), validate=validate,

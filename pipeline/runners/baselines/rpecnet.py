@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline.harness.baselines import common
-from pipeline.harness.baselines.pecnet import Pecnet
+from pipeline.runners.baselines import common
+from pipeline.runners.baselines.pecnet import Pecnet
 from pipeline.device import CPU
 from pipeline.data.window_table import WindowArrays
 

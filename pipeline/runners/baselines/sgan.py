@@ -30,8 +30,9 @@ from torch import nn
 
 from pipeline import checkpoints
 from pipeline.config.sgan import SganConfig
-from pipeline.harness.baselines import common
-from pipeline.harness.baselines.common import FitResult, as_input, mlp
+from pipeline.runners.baselines import common
+from pipeline.runners.baselines.common import FitResult, as_input, mlp
+from pipeline.runners.baselines.training import run_training
 from pipeline.device import generator as seeded_generator
 from pipeline.device import CPU, to_device
 from pipeline.harness.metrics import window_errors
@@ -219,7 +220,7 @@ class SocialGan:
             pred = model.predict(val, config.val_k, seeded_generator(device, seed + 1))
             return window_errors(pred, val.future).ade  # (N,)
 
-        model.fit_result = common.run_training(
+        model.fit_result = run_training(
             name=cls.name, modules={"generator": model.generator, "discriminator": model.discriminator},
             optimizers={"generator": opt_g, "discriminator": opt_d}, epoch_batches=epoch_batches,
             train_batch=train_batch, loss_names=("loss_d", "loss_adv", "loss_l2"),
