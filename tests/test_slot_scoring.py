@@ -1,4 +1,4 @@
-"""How each Y-net horizon and extra-seed slot is scored (`pipeline.slot_scoring`, stage
+"""How each Y-net horizon and extra-seed slot is scored (`pipeline.runners.slot_scoring`, stage
 `ynet_slot_scoring`): one file a slot, unchanged by a sampling param for a slot the profile does not
 train, so that `dvc exp run -S ttst.temperature=...` re-runs only the slots it trains."""
 
@@ -16,7 +16,7 @@ from pipeline.config.eval import EvalParams
 from pipeline.config.loading import load_profile
 from pipeline.config.ynet_horizons import HorizonParams
 from pipeline.io import IntermediateError
-from pipeline.slot_scoring import (EVAL_KEYS, check_agrees, horizon_slot, read_slot_scoring, seed_slot,
+from pipeline.runners.slot_scoring import (EVAL_KEYS, check_agrees, horizon_slot, read_slot_scoring, seed_slot,
                                    slot_payloads)
 from pipeline.stages import evaluate_ynet_horizon, evaluate_ynet_seed, ynet_slot_scoring
 

@@ -32,7 +32,7 @@ from pipeline.config.windows import WindowParams
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ynet_horizon import horizon_splits, training_summary
-from pipeline.slot_scoring import SlotScoring, check_agrees, horizon_slot, read_slot_scoring
+from pipeline.runners.slot_scoring import SlotScoring, check_agrees, horizon_slot, read_slot_scoring
 
 
 @exit_on_bad_intermediate

@@ -29,7 +29,7 @@ from pipeline.config.loading import load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.data.window_table import to_arrays
 from pipeline.io import exit_on_bad_intermediate, index_value, read_json_index, write_json
-from pipeline.slot_scoring import SlotScoring, check_agrees, read_slot_scoring, seed_slot
+from pipeline.runners.slot_scoring import SlotScoring, check_agrees, read_slot_scoring, seed_slot
 
 
 @exit_on_bad_intermediate

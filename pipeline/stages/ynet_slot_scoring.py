@@ -2,7 +2,7 @@
 
 Writes `<out>/<slot>.json` for every `evaluate_ynet_horizon@<t_f>` (slot `tf<t_f>`) and
 `evaluate_ynet_seed@<seed>` (slot `seed<seed>`): the sampling settings of a slot the active profile
-trains, `{slot, scored: false}` for the others (`pipeline.slot_scoring`). The evaluation stages
+trains, `{slot, scored: false}` for the others (`pipeline.runners.slot_scoring`). The evaluation stages
 depend on their own file instead of the sampling params, so a slot the profile does not train is
 not re-run by `dvc exp run -S ttst.temperature=...`. Params: `profile`, `ttst`, `cws`,
 `eval.<profile>` (k_e, k_a, rounds, seed, batch_size, chunk_size, bf16, threads),
@@ -19,7 +19,7 @@ from pathlib import Path
 
 from pipeline.config.loading import read_params
 from pipeline.io import atomic_dir, write_json
-from pipeline.slot_scoring import slot_payloads
+from pipeline.runners.slot_scoring import slot_payloads
 
 
 def main(argv: list[str] | None = None) -> None:
