@@ -16,6 +16,7 @@ import pytest
 from pipeline.report import claims
 from pipeline.report.lookups import MetricsStore
 from pipeline.report.provenance import load_paper_values
+from pipeline.report.short_term_seeds import SeedRun, ShortTermSeeds
 from tests.test_report import assert_well_formed, full_project, project  # noqa: F401 (a fixture)
 
 REPO = Path(__file__).resolve().parents[1]
@@ -126,8 +127,17 @@ def short_term(sdd: dict | None = None, eth: dict | None = None) -> MetricsStore
     return MetricsStore("metrics", files)
 
 
-def check(claim_id: str, metrics: MetricsStore) -> claims.Outcome:
-    outcome = CLAIMS[claim_id].check(metrics, PAPER)
+def study(runs: dict[tuple[str, str], dict[int, dict[str, float]]]) -> ShortTermSeeds:
+    """Tables 1-2's runs over training seeds: {(dataset, model): {seed: {"k20.ade": ...}}}, seed 0
+    the headline."""
+    return ShortTermSeeds({key: [SeedRun(seed, "cpu", seed == 0, values, f"{key}/{seed}")
+                                 for seed, values in by_seed.items()]
+                           for key, by_seed in runs.items()})
+
+
+def check(claim_id: str, metrics: MetricsStore,
+          short_term: ShortTermSeeds | None = None) -> claims.Outcome:
+    outcome = CLAIMS[claim_id].check(metrics, PAPER, short_term)
     assert outcome.verdict in claims.VERDICTS and outcome.reason
     return outcome
 
@@ -210,7 +220,8 @@ def test_a_margin_is_computed_per_training_seed_with_ynets_seeds():
     assert outcome.verdict == "inconclusive"
     assert ("ADE: PECNet \u2212 1.5 \u00d7 Y-net +6.00 \u00b1 6.98 px (mean of training seeds 0, 1, 2: "
             "+5.00, -2.00, +15.00)") in outcome.reason
-    assert "ADE +60.0 % against the claimed 50.0 %: direction holds, size inconclusive" in outcome.reason
+    assert ("ADE +63.0 % (mean over training seeds 0, 1, 2) against the claimed 50.0 %: direction "
+            "holds, size inconclusive") in outcome.reason  # +60.0, +46.3, +82.6 %
     assert outcome.seeds == "PECNet: 3 training seeds; Y-net: 3 training seeds"
     (margin,) = outcome.margins
     assert margin.per_seed == ((0, 5.0), (1, -2.0), (2, 15.0))
@@ -489,6 +500,78 @@ def test_trajectron_is_checked_against_the_papers_quoted_numbers():
         "AVG FDE +25.8 % against the claimed 51.9 %: direction holds, size does not;")
     assert outcome.ours[0] == ("AVG ADE: Trajectron++ (quoted) 0.190 vs Y-net 0.207 m: -8.2 % "
                                "(error reduction -8.9 %)")
+
+
+def sdd_runs(model: str, by_seed: dict[int, tuple[float, float, float, float]]) -> dict:
+    """{(sdd, model): {seed: K = 20 ADE, FDE, K = 5 ADE, FDE}}."""
+    return {("sdd", model): {seed: {"k20.ade": a20, "k20.fde": f20, "k5.ade": a5, "k5.fde": f5}
+                             for seed, (a20, f20, a5, f5) in by_seed.items()}}
+
+
+# PECNet and Y-net on SDD over three training seeds; seed 0 is the headline (SDD_AHEAD).
+SDD_SEEDS = {**sdd_runs("pecnet", {0: (10.0, 16.0, 14.9, 29.0), 1: (11.5, 17.0, 15.5, 30.0),
+                                   2: (14.0, 21.0, 18.0, 33.0)}),
+             **sdd_runs("ynet", {0: (9.0, 14.0, 11.0, 19.0), 1: (8.8, 14.5, 12.4, 22.0),
+                                 2: (9.3, 13.5, 12.6, 23.0)})}
+
+
+def test_table_1_margins_are_computed_per_training_seed_of_the_study_with_ynets_seeds():
+    """Headline alone, PECNet - 1.2675 x Y-net is -1.41 px (does not hold); per seed it is
+    -1.41, +0.35, +2.21 px: the spread straddles zero."""
+    alone = check("sdd-short-pecnet", short_term())
+    assert alone.verdict == "does not hold"
+    outcome = check("sdd-short-pecnet", short_term(), study(SDD_SEEDS))
+    assert outcome.verdict == "inconclusive"
+    ade = outcome.margins[0]
+    assert [s for s, _ in ade.per_seed] == [0, 1, 2]
+    assert [v for _, v in ade.per_seed] == pytest.approx([-1.4075, 0.346, 2.21225])
+    assert ade.spread == pytest.approx(statistics.pstdev(v for _, v in ade.per_seed))
+    assert outcome.seeds == "PECNet: 3 training seeds; Y-net: 3 training seeds"
+    gains = [10.0 / 9.0 - 1, 11.5 / 8.8 - 1, 14.0 / 9.3 - 1]
+    assert outcome.reason.startswith(
+        f"ADE {statistics.fmean(gains) * 100:+.1f} % (mean over training seeds 0, 1, 2) against the "
+        "claimed 26.8 %: direction holds, size inconclusive;")
+    without_ynets = {**SDD_SEEDS, **sdd_runs("ynet", {0: (9.0, 14.0, 11.0, 19.0)})}
+    fixed = check("sdd-short-pecnet", short_term(), study(without_ynets)).margins[0]
+    assert [v for _, v in fixed.per_seed] == pytest.approx([-1.4075, 0.0925, 2.5925])
+    assert check("sdd-short-pecnet", short_term(), study(without_ynets)).seeds == (
+        "PECNet: 3 training seeds; one training seed: Y-net")
+
+
+def test_table_1_seeds_are_read_at_the_columns_k():
+    """At K = 5 Y-net's seeds 1-2 (12.4, 12.6 px) lie above TNT*'s quoted 12.23 px while the
+    headline (11.0) lies below: the K = 5 ADE margin against TNT* turns inconclusive."""
+    outcome = check("sdd-short-best", short_term(), study(SDD_SEEDS))
+    by_name = {m.name: m for m in outcome.margins}
+    tnt = by_name["K = 5 ADE: TNT* (paper, quoted)"]
+    assert [round(v, 2) for _, v in tnt.per_seed] == [1.23, -0.17, -0.37]
+    assert tnt.verdict == "inconclusive"
+    pecnet_20 = by_name["K = 20 ADE: PECNet"]
+    assert [round(v, 2) for _, v in pecnet_20.per_seed] == [1.0, 2.7, 4.7]
+    assert outcome.verdict == "inconclusive"
+
+
+def test_table_2_average_per_seed_keeps_folds_of_one_seed_fixed():
+    """Y-net has seeds on the eth fold only: its average per seed moves by a fifth of eth's
+    change; S-GAN's seeds cover every fold but hotel lacks seed 2, so only seeds 0-1 count."""
+    ynet_eth = {("eth", "ynet"): {0: {"k20.ade": 0.40, "k20.fde": 0.60},
+                                  1: {"k20.ade": 0.45, "k20.fde": 0.70},
+                                  2: {"k20.ade": 0.35, "k20.fde": 0.50}}}
+    sgan = {(scene, "sgan"): {seed: {"k20.ade": a + 0.01 * seed, "k20.fde": f + 0.02 * seed}
+                              for seed in ((0, 1) if scene == "hotel" else (0, 1, 2))}
+            for scene, (a, f) in ETH_AHEAD["sgan"].items()}
+    outcome = check("ethucy-trajectron", short_term(), study(ynet_eth))
+    ade = outcome.margins[0]
+    averages = [0.18, 0.19, 0.17]
+    assert [round(v, 4) for _, v in ade.per_seed] == [round(0.19 - 1.0555 * a, 4) for a in averages]
+    assert outcome.seeds == ("Y-net: 3 training seeds (the eth fold; one seed elsewhere); "
+                             "quoted from the paper (no seed spread): Trajectron++*")
+    best = check("ethucy-best", short_term(), study({**ynet_eth, **sgan}))
+    sgan_ade = next(m for m in best.margins if m.name == "AVG ADE: S-GAN")
+    assert sgan_ade.per_seed == ()  # Y-net's seeds 0-2 against S-GAN's 0-1: quadrature
+    sgan_only = claims.ethucy_avg(short_term(), "sgan", "ade", study(sgan))
+    assert sgan_only.per_seed == ((0, pytest.approx(0.32)), (1, pytest.approx(0.33)))
+    assert sgan_only.seeded_part == ""
 
 
 # ---------------------------------------------------------------------------------------------

@@ -12,7 +12,9 @@ Most rules compare models, and are written as margins (`Margin`): a signed sum o
 positive where the claim holds, e.g. PECNet's ADE - 1.5 x Y-net's for "better by over 50 %". A
 margin has a spread over training seeds where any of its numbers comes from a model trained with
 several seeds (`metrics/baseline_seed_spread.json`: the baselines, and the main Y-net where the
-profile trains extra seeds, from `metrics/ynet_seeds/`). Where every such number has its per-seed
+profile trains extra seeds, from `metrics/ynet_seeds/`; for Tables 1-2, their study's runs over
+training seeds, `ShortTermSeeds`, where a model has seeds on some ETH/UCY folds only and the others
+stay fixed). Where every such number has its per-seed
 values over one list of seeds, the margin is computed per seed (a number from one seed stays fixed)
 and is the mean of those margins, its spread their population std; otherwise it is computed from
 the main seed's numbers, with the spreads added in quadrature. A number quoted from the paper's
@@ -43,6 +45,7 @@ from typing import Any
 from pipeline.model_list import label
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, dig, is_number,
                                      lookup, lookup_ynet_setting)
+from pipeline.report.short_term_seeds import ShortTermSeeds
 
 VERDICTS = ("holds", "does not hold", "inconclusive", "not measured")
 METRICS = ("ade", "fde")
@@ -74,6 +77,7 @@ class Term:
     seeds: int = 1
     per_seed: tuple[tuple[int, float], ...] = ()  # (training seed, its value), every seed or none
     quoted: bool = False
+    seeded_part: str = ""  # where only part of the number has seeds: which ("the eth fold")
 
 
 def margin_verdict(value: float, spread: float | None) -> str:
@@ -96,10 +100,12 @@ def per_seed_margins(parts: Sequence[tuple[float, Term]]) -> tuple[tuple[int, fl
     if len(seed_lists) != 1 or () in seed_lists:
         return ()
     (seeds,) = seed_lists
+    return tuple((seed, sum(coef * at_seed(term, seed) for coef, term in parts)) for seed in seeds)
 
-    def at(term: Term, seed: int) -> float:
-        return dict(term.per_seed)[seed] if term.seed_std is not None else term.value
-    return tuple((seed, sum(coef * at(term, seed) for coef, term in parts)) for seed in seeds)
+
+def at_seed(term: Term, seed: int) -> float:
+    """The term's value at a training seed (a term from one seed, or quoted, stays fixed)."""
+    return dict(term.per_seed)[seed] if term.seed_std is not None else term.value
 
 
 def quadrature(parts: Sequence[tuple[float, Term]]) -> float | None:
@@ -170,7 +176,7 @@ class Claim:
     section: str  # where in the paper
     quote: str  # verbatim, LaTeX markup (math, \%, \textsf{Y}, \cite) written out as plain text
     rule: str  # the rule `check` applies, in words
-    check: Callable[[MetricsStore, Mapping], Outcome]
+    check: Callable[[MetricsStore, Mapping, ShortTermSeeds | None], Outcome]
 
 
 @dataclass(frozen=True)
@@ -185,16 +191,23 @@ def seeds_line(margins: Iterable[Margin]) -> str:
     several: dict[str, int] = {}
     single: set[str] = set()
     quoted: set[str] = set()
+    partly: dict[str, set[str]] = {}
     for margin in margins:
         for _, term in margin.parts:
             if term.quoted:
                 quoted.add(term.model)
             elif term.seed_std is not None:
                 several[term.model] = max(several.get(term.model, 0), term.seeds)
+                if term.seeded_part:
+                    partly.setdefault(term.model, set()).add(term.seeded_part)
             else:
                 single.add(term.model)
-    parts = [f"{model}: {n} training seeds" + (" (one for some of its numbers)" if model in single else "")
-             for model, n in sorted(several.items())]
+
+    def scope(model: str) -> str:
+        if model in partly:
+            return f" ({', '.join(sorted(partly[model]))}; one seed elsewhere)"
+        return " (one for some of its numbers)" if model in single else ""
+    parts = [f"{model}: {n} training seeds{scope(model)}" for model, n in sorted(several.items())]
     alone = sorted(single - set(several))
     if alone:
         parts.append(f"one training seed: {', '.join(alone)}")
@@ -305,9 +318,19 @@ class Gain:
         holds, reversed or inconclusive; the size: does not or inconclusive)."""
         direction = {"does not hold": "reversed"}.get(self.direction.verdict, self.direction.verdict)
         size = {"does not hold": "does not"}.get(self.size.verdict, self.size.verdict)
-        measured = gain(self.other.value, self.ynet.value) * 100
-        return (f"{self.metric} {measured:+.1f} % against the claimed {self.claimed * 100:.1f} %: "
-                f"direction {direction}, size {size}")
+        per_seed = self.per_seed_gains()
+        measured = (statistics.fmean(g for _, g in per_seed) if per_seed
+                    else gain(self.other.value, self.ynet.value)) * 100
+        over = f" (mean over training seeds {', '.join(str(s) for s, _ in per_seed)})" if per_seed else ""
+        return (f"{self.metric} {measured:+.1f} %{over} against the claimed "
+                f"{self.claimed * 100:.1f} %: direction {direction}, size {size}")
+
+    def per_seed_gains(self) -> tuple[tuple[int, float], ...]:
+        """The percentage per training seed, where the margins are computed per seed (as their
+        margins are); () otherwise."""
+        parts = ((1.0, self.other), (-1.0, self.ynet))
+        return tuple((seed, gain(at_seed(self.other, seed), at_seed(self.ynet, seed)))
+                     for seed, _ in per_seed_margins(parts))
 
 
 def decide_gains(gains: Sequence[Gain], unit: str, decimals: int, ours: Sequence[str],
@@ -445,18 +468,42 @@ def ind(store: MetricsStore, model: str, metric: str, ablation: str = "ttst_cws"
     return term(model, lookup(store, IND_FILE, path, t_f=LONG_TF))
 
 
-def short_sdd(store: MetricsStore, model: str, k: int, metric: str) -> Term | Absent:
-    return term(model, lookup(store, "short_term/sdd.json", ("models", model, f"k{k}", metric)))
+def over_seeds(per_seed: Sequence[tuple[int, float]]) -> SeedValues | None:
+    """Per-seed values as a spread (population std); None with fewer than two seeds."""
+    if len(per_seed) < 2:
+        return None
+    return SeedValues(statistics.pstdev(v for _, v in per_seed), len(per_seed), tuple(per_seed))
 
 
-def ethucy_avg(store: MetricsStore, model: str, metric: str) -> Term | Absent:
-    """The mean of the five scenes' means (as Table 2's AVG row), when all five were measured."""
+def short_sdd(store: MetricsStore, model: str, k: int, metric: str,
+              short_term: ShortTermSeeds | None = None) -> Term | Absent:
+    """Table 1's number, with its spread over the training seeds of Tables 1-2's study runs."""
+    spread = over_seeds(short_term.per_seed("sdd", model, k, metric)) if short_term else None
+    return term(model, lookup(store, "short_term/sdd.json", ("models", model, f"k{k}", metric)), spread)
+
+
+def ethucy_avg(store: MetricsStore, model: str, metric: str,
+               short_term: ShortTermSeeds | None = None) -> Term | Absent:
+    """The mean of the five scenes' means (as Table 2's AVG row), when all five were measured.
+    Its value per training seed: the average with each fold's number at that seed, over the seeds
+    every fold trained with several seeds has (a fold with one seed stays fixed)."""
     values = [lookup(store, f"short_term/ethucy_{scene}.json", ("models", model, metric))
               for scene in ETHUCY_SCENES]
     absent = first_absent(values)
     if absent is not None:
         return absent
-    return Term(label(model), sum(v.mean for v in values) / len(values))
+    average = sum(v.mean for v in values) / len(values)
+    seeded = {scene: dict(found) for scene in ETHUCY_SCENES
+              if short_term and len(found := short_term.per_seed(scene, model, 20, metric)) >= 2}
+    common = sorted(set.intersection(*(set(by_seed) for by_seed in seeded.values()))) if seeded else []
+    per_seed = [(seed, sum(seeded[scene][seed] if scene in seeded else v.mean
+                           for scene, v in zip(ETHUCY_SCENES, values)) / len(values))
+                for seed in common]
+    spread = over_seeds(per_seed)
+    if spread is None:
+        return Term(label(model), average)
+    part = "" if len(seeded) == len(ETHUCY_SCENES) else f"the {', '.join(seeded)} fold{'s' * (len(seeded) > 1)}"
+    return Term(label(model), average, spread.std, spread.seeds, spread.per_seed, seeded_part=part)
 
 
 def other_models(store: MetricsStore, rel: str) -> list[str] | Absent:
@@ -544,19 +591,23 @@ def better_by(store: MetricsStore, paper: Mapping, dataset: str,
     return decide_gains(gains, "px", 2, ours, paper_lines)
 
 
-def check_over_50(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_over_50(store: MetricsStore, paper: Mapping,
+                  short_term: ShortTermSeeds | None = None) -> Outcome:
     return better_by(store, paper, "sdd", {"ade": 0.50}, exact=True)
 
 
-def check_intro_sdd(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_intro_sdd(store: MetricsStore, paper: Mapping,
+                    short_term: ShortTermSeeds | None = None) -> Outcome:
     return better_by(store, paper, "sdd", {"ade": 0.506, "fde": 0.771})
 
 
-def check_ind(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_ind(store: MetricsStore, paper: Mapping,
+              short_term: ShortTermSeeds | None = None) -> Outcome:
     return better_by(store, paper, "ind", {"ade": 0.0, "fde": 0.0})
 
 
-def check_horizon_gap(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_horizon_gap(store: MetricsStore, paper: Mapping,
+                      short_term: ShortTermSeeds | None = None) -> Outcome:
     """The ADE gap PECNet - Y-net grows at every step from one horizon to the next."""
     gap = paper_long(paper, "sdd", "pecnet", "ade") - paper_long(paper, "sdd", "ynet", "ade")
     paper_lines = [f"Figure 4: a plot, no published numbers; Table 3 (30 s): PECNet \u2212 Y-net = "
@@ -578,7 +629,8 @@ def check_horizon_gap(store: MetricsStore, paper: Mapping) -> Outcome:
     return decide(margins, "px", 1, ours, paper_lines)
 
 
-def check_recurrent(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_recurrent(store: MetricsStore, paper: Mapping,
+                    short_term: ShortTermSeeds | None = None) -> Outcome:
     """PECNet trained per horizon has a lower ADE than R-PECNet at every horizon beyond 5 s."""
     paper_lines = [f"Table 3 (30 s) ADE, {name}: R-PECNet {paper_long(paper, d, 'rpecnet', 'ade'):.2f} "
                    f"vs PECNet {paper_long(paper, d, 'pecnet', 'ade'):.2f} px"
@@ -621,15 +673,18 @@ def ablation_gain(store: MetricsStore, paper: Mapping, dataset: str, without: st
     return decide_gains(gains, "px", 2, ours, paper_lines)
 
 
-def check_ttst_sdd(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_ttst_sdd(store: MetricsStore, paper: Mapping,
+                   short_term: ShortTermSeeds | None = None) -> Outcome:
     return ablation_gain(store, paper, "sdd", "cws", "ttst_cws", {"ade": 0.091, "fde": 0.304})
 
 
-def check_ttst_ind(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_ttst_ind(store: MetricsStore, paper: Mapping,
+                   short_term: ShortTermSeeds | None = None) -> Outcome:
     return ablation_gain(store, paper, "ind", "cws", "ttst_cws", {"ade": 0.185, "fde": 0.350})
 
 
-def check_cws_ade(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_cws_ade(store: MetricsStore, paper: Mapping,
+                  short_term: ShortTermSeeds | None = None) -> Outcome:
     return ablation_gain(store, paper, "sdd", "none", "cws", {"ade": 0.243})
 
 
@@ -647,7 +702,8 @@ def round_spreads(settings: Sequence[Measured], main: Measured | Absent) -> tupl
     return [stand_in if s.std is None else s.std for s in settings], note
 
 
-def check_cws_fde(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_cws_fde(store: MetricsStore, paper: Mapping,
+                  short_term: ShortTermSeeds | None = None) -> Outcome:
     """CWS leaves the FDE as it is: the change is within the spread over evaluation rounds of the
     two settings, a setting scored in one round taking the main setting's spread
     (`round_spreads`); inconclusive where no setting has a spread."""
@@ -676,7 +732,8 @@ def check_cws_fde(store: MetricsStore, paper: Mapping) -> Outcome:
     return Outcome("holds" if within else "does not hold", reason, tuple(ours), tuple(paper_lines), seeds)
 
 
-def check_ka(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_ka(store: MetricsStore, paper: Mapping,
+             short_term: ShortTermSeeds | None = None) -> Outcome:
     """At every K_e of the K_a grid, ADE falls at each step up in K_a."""
     ka = [(c["k_a"], c["ade"]) for c in paper["sdd_long"]["columns"]
           if (c["dataset"], c["model"]) == ("sdd", "ynet")]
@@ -706,7 +763,8 @@ def check_ka(store: MetricsStore, paper: Mapping) -> Outcome:
     return decide(margins, "px", 2, ours, paper_lines)
 
 
-def check_pecnet_samples(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_pecnet_samples(store: MetricsStore, paper: Mapping,
+                         short_term: ShortTermSeeds | None = None) -> Outcome:
     """PECNet with 20 K_a samples has a higher ADE than Y-net (K_e = 20) at every K_a of both."""
     paper_lines = ["Figure 5: a plot, no published numbers"]
     found = pecnet_ka(store)
@@ -727,12 +785,14 @@ def check_pecnet_samples(store: MetricsStore, paper: Mapping) -> Outcome:
     return decide(margins, "px", 2, ours, paper_lines)
 
 
-def check_sdd_short_pecnet(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_sdd_short_pecnet(store: MetricsStore, paper: Mapping,
+                           short_term: ShortTermSeeds | None = None) -> Outcome:
     """Short-term SDD, K = 20: PECNet's ADE and FDE exceed Y-net's by 26.8 % and 34.0 %."""
     columns = {m: paper_column(paper, "sdd_short", model=m, k=20) for m in ("pecnet", "ynet")}
     paper_lines = [versus(m.upper(), "PECNet", columns["pecnet"][m], "Y-net", columns["ynet"][m],
                           "px", 2) for m in METRICS]
-    found = {m: (short_sdd(store, "pecnet", 20, m), short_sdd(store, "ynet", 20, m)) for m in METRICS}
+    found = {m: (short_sdd(store, "pecnet", 20, m, short_term), short_sdd(store, "ynet", 20, m, short_term))
+             for m in METRICS}
     absent = first_absent(v for pair in found.values() for v in pair)
     if absent is not None:
         return not_measured(absent, paper=paper_lines)
@@ -767,7 +827,8 @@ def best_line(others: Iterable[tuple[str, float]], ynet: float, decimals: int) -
     return f"Y-net {ynet:.{decimals}f}, next {name} {value:.{decimals}f}"
 
 
-def check_sdd_short_best(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_sdd_short_best(store: MetricsStore, paper: Mapping,
+                         short_term: ShortTermSeeds | None = None) -> Outcome:
     """Short-term SDD: Y-net's ADE and FDE are the lowest of the models we run and below the
     strongest prior model of the paper's table (as quoted), at K = 20 and 5."""
     cols = paper["sdd_short"]["columns"]
@@ -781,8 +842,8 @@ def check_sdd_short_best(store: MetricsStore, paper: Mapping) -> Outcome:
     for k in SHORT_K:
         for m in METRICS:
             column = f"K = {k} {m.upper()}"
-            ynet[column] = short_sdd(store, "ynet", k, m)
-            by[column] = [short_sdd(store, o, k, m) for o in others]
+            ynet[column] = short_sdd(store, "ynet", k, m, short_term)
+            by[column] = [short_sdd(store, o, k, m, short_term) for o in others]
             prior[column] = strongest_sdd_short(paper, k, m)
     absent = first_absent([*ynet.values(), *(t for terms in by.values() for t in terms)])
     if absent is not None:
@@ -793,7 +854,8 @@ def check_sdd_short_best(store: MetricsStore, paper: Mapping) -> Outcome:
     return decide(margins, "px", 2, ours, paper_lines, checked_against(others, prior))
 
 
-def check_ethucy_best(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_ethucy_best(store: MetricsStore, paper: Mapping,
+                      short_term: ShortTermSeeds | None = None) -> Outcome:
     """ETH/UCY, the average of the five scenes: Y-net's ADE and FDE are the lowest of the models
     we run and below the strongest prior model of the paper's table (as quoted)."""
     entries = paper["eth_ucy"]["models"]
@@ -803,8 +865,8 @@ def check_ethucy_best(store: MetricsStore, paper: Mapping) -> Outcome:
     others = other_models(store, f"short_term/ethucy_{ETHUCY_SCENES[0]}.json")
     if isinstance(others, Absent):
         return not_measured(others, paper=paper_lines)
-    ynet = {f"AVG {m.upper()}": ethucy_avg(store, "ynet", m) for m in METRICS}
-    by = {f"AVG {m.upper()}": [ethucy_avg(store, o, m) for o in others] for m in METRICS}
+    ynet = {f"AVG {m.upper()}": ethucy_avg(store, "ynet", m, short_term) for m in METRICS}
+    by = {f"AVG {m.upper()}": [ethucy_avg(store, o, m, short_term) for o in others] for m in METRICS}
     prior = {f"AVG {m.upper()}": strongest_ethucy(paper, m) for m in METRICS}
     absent = first_absent([*ynet.values(), *(t for terms in by.values() for t in terms)])
     if absent is not None:
@@ -815,13 +877,14 @@ def check_ethucy_best(store: MetricsStore, paper: Mapping) -> Outcome:
     return decide(margins, "m", 3, ours, paper_lines, checked_against(others, prior))
 
 
-def check_trajectron(store: MetricsStore, paper: Mapping) -> Outcome:
+def check_trajectron(store: MetricsStore, paper: Mapping,
+                     short_term: ShortTermSeeds | None = None) -> Outcome:
     """Trajectron++'s AVG errors, as the paper quotes them (this pipeline does not run it), exceed
     our Y-net's by about 5.6 % (ADE) and 51.9 % (FDE)."""
     t, y = paper_ethucy(paper, "trajectronpp"), paper_ethucy(paper, "ynet")
     paper_lines = [versus(f"AVG {m.upper()}", "Trajectron++", t[m]["avg"], "Y-net", y[m]["avg"],
                           "m", 2) for m in METRICS]
-    found = {m: ethucy_avg(store, "ynet", m) for m in METRICS}
+    found = {m: ethucy_avg(store, "ynet", m, short_term) for m in METRICS}
     absent = first_absent(found.values())
     if absent is not None:
         return not_measured(absent, paper=paper_lines)
@@ -914,20 +977,23 @@ CLAIMS: tuple[Claim, ...] = (
 )
 
 
-def evaluate(store: MetricsStore, paper: Mapping, claims: Sequence[Claim] = CLAIMS) -> list[ClaimRow]:
-    """Every claim's outcome; a rule that fails on a malformed file says so as `not measured`."""
+def evaluate(store: MetricsStore, paper: Mapping, claims: Sequence[Claim] = CLAIMS,
+             short_term: ShortTermSeeds | None = None) -> list[ClaimRow]:
+    """Every claim's outcome; a rule that fails on a malformed file says so as `not measured`.
+    `short_term`: Tables 1-2's runs over training seeds (their study), for those tables' margins."""
     rows = []
     for claim in claims:
         try:
-            outcome = claim.check(store, paper)
+            outcome = claim.check(store, paper, short_term)
         except (KeyError, TypeError, ValueError, ZeroDivisionError, StopIteration) as e:
             outcome = Outcome("not measured", f"could not apply the rule: {type(e).__name__}: {e}")
         rows.append(ClaimRow(claim, outcome))
     return rows
 
 
-def claims_section(store: MetricsStore, paper: Mapping) -> dict[str, Any]:
+def claims_section(store: MetricsStore, paper: Mapping,
+                   short_term: ShortTermSeeds | None = None) -> dict[str, Any]:
     """The template's context: the rows and how many claims have each verdict."""
-    rows = evaluate(store, paper)
+    rows = evaluate(store, paper, short_term=short_term)
     return {"rows": rows,
             "counts": {v: sum(r.outcome.verdict == v for r in rows) for v in VERDICTS}}

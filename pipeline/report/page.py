@@ -287,7 +287,7 @@ def build_context(inputs: Inputs, lock: Mapping[str, Any] | Absent, report_param
         "protocol_labels": PROTOCOL_LABELS, "protocol_lines": PROTOCOLS,
         "protocol_keys": PROTOCOL_KEYS,
         "summaries": [summarize(t) for t in tables],
-        "claims": claims_section(store, paper),
+        "claims": claims_section(store, paper, seeds),
         "tables": tables,
         "diagnostics": diagnostics_section(store, paper, table_models(registered)),
         **figures,

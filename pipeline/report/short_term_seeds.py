@@ -86,6 +86,12 @@ class ShortTermSeeds:
     def range(self, dataset: str, model: str, k: int, metric: str) -> tuple[float, float, int] | None:
         return seed_range(self.runs.get((dataset, model), []), f"k{k}.{metric}")
 
+    def per_seed(self, dataset: str, model: str, k: int, metric: str) -> tuple[tuple[int, float], ...]:
+        """(training seed, value) of every run that has the number, in seed order."""
+        key = f"k{k}.{metric}"
+        return tuple(sorted((run.seed, run.values[key]) for run in self.runs.get((dataset, model), [])
+                            if key in run.values))
+
     def average(self, model: str, metric: str, k: int = 20) -> tuple[float, float, int] | None:
         return average_range({fold: self.runs.get((fold, model), []) for fold in ETHUCY_FOLDS},
                              f"k{k}.{metric}")
