@@ -62,8 +62,9 @@ def run_training(
     without touching `generator`; the history keeps them and their mean (`val_ade`). Every rule of
     `pipeline.harness.epoch_selection` keeps its epoch's weights (`best_path`); the weights of the
     last few epochs stay at hand (in memory and in `last.pt`) until each rule has judged them. On
-    return the modules hold the weights `raw` keeps (the lowest mean validation error). The modules live on `device`, `generator`
-    too (its state must be restored on the same kind of device).
+    return the modules hold the weights `raw` keeps (the lowest mean validation error). The
+    modules live on `device`, `generator` too (its state must be restored on the same kind of
+    device).
 
     Resuming (`pipeline.checkpoints.resume`): a `last.pt` of the same data (`data_fingerprint`:
     windows and seed) and the same config (up to `epochs`, which may only grow) is continued where
