@@ -30,9 +30,10 @@ NUMBER = re.compile(r"\d+\.\d+")
 def test_the_benchmark_runs_with_smoke_and_prints_numbers(script):
     if script.name in NEEDS_MIRROR and not MIRROR.exists():
         pytest.skip(f"{MIRROR} not on this machine")
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1",
+    env = {**os.environ, "OMP_NUM_THREADS": "1",
            "GLIBC_TUNABLES": KEEP_FREED_MEMORY}  # as the stages run: no re-execution to set it
-    done = subprocess.run([sys.executable, str(script), "--smoke"], cwd=ROOT, env=env,
+    done = subprocess.run([sys.executable, "-m", f"bench.{script.stem}", "--smoke"], cwd=ROOT,
+                          env=env,
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, f"exit {done.returncode}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
     assert NUMBER.search(done.stdout), done.stdout[-2000:]
@@ -43,10 +44,9 @@ def test_the_benchmarks_are_found():
 
 
 @pytest.mark.parametrize("script", EXPERIMENTS, ids=lambda path: path.stem)
-def test_the_experiment_imports(script, monkeypatch):
-    """What an experiment imports still exists (run as a script, its folder is on sys.path)."""
-    monkeypatch.syspath_prepend(str(script.parent))
-    importlib.import_module(script.stem)
+def test_the_experiment_imports(script):
+    """What an experiment imports still exists (run as `python -m docs.experiments.<name>`)."""
+    importlib.import_module(f"docs.experiments.{script.stem}")
 
 
 def test_a_missing_output_names_its_stage_and_exits_needs_pipeline(tmp_path, capsys):
@@ -66,10 +66,9 @@ def test_a_missing_output_names_its_stage_and_exits_needs_pipeline(tmp_path, cap
 
 def test_a_benchmark_without_its_inputs_exits_needs_pipeline(tmp_path):
     """Not in smoke mode, in a folder without data/: the distinct exit `make bench` goes on after."""
-    done = subprocess.run([sys.executable, str(ROOT / "bench" / "bench_score_predictions.py"),
-                           "--root", str(tmp_path)], cwd=ROOT,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True,
-                          text=True, timeout=300)
+    done = subprocess.run([sys.executable, "-m", "bench.bench_score_predictions",
+                           "--root", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=300)
     assert done.returncode == common.NEEDS_PIPELINE, done.stderr[-3000:]
     assert (f"needs {tmp_path / 'data/predictions/long_term'}: run `dvc repro score_predictions`"
             in done.stdout)
