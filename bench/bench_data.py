@@ -1,7 +1,7 @@
 """Speed of the data stages on the real mirror (parse 23 raw videos, cut windows, import the release).
 
 The authors' long-term preprocessing of the same 23 raw videos into 62 windows took
-1.07 / 1.20 / 1.42 s (min / median / max) on this machine (../shared/reference/data-facts.md).
+1.07 / 1.20 / 1.42 s (min / median / max) on this machine.
 Run from the repository root: `python -m bench.bench_data [--mirror ../shared/data] [--repeats 5]
 [--smoke]`; `--smoke` times each step once (a few seconds on the real mirror).
 """

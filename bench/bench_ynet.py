@@ -1,4 +1,4 @@
-"""Speed of `ynet` on CPU against the authors' code (figures in shared/reference/data-facts.md).
+"""Speed of `ynet` on CPU against the authors' code (their figures: `AUTHORS` below).
 
 Not a test: prints numbers. Random weights and a random 6-class semantic map, padded 512 x 416 input
 (deathCircle_0 at resize 0.25), long-term SDD config (n_p 5, n_f 30, waypoints 14 and 29).
