@@ -57,11 +57,11 @@ from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.ttst import TtstParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.data.window_table import WindowArrays
-from pipeline.data.ynet_data import SceneWindows, group_by_scene
+from pipeline.data.ynet_data import group_by_scene
 from pipeline.device import (SCORING, TRAINING, conv_layout, describe, select_device,
                              synchronize)
 from pipeline.runners.ynet_scoring import predict_scenes, sampling_options
-from pipeline.runners.ynet_training import (BatchPart, epoch_plan, train_epoch,
+from pipeline.runners.ynet_training import (epoch_plan, plan_input_shape, train_epoch,
                                             ynet_optimizer)
 from ynet.heatmaps import padded_size
 from ynet.loss import ynet_loss
@@ -93,20 +93,6 @@ def synthetic_windows(n: int, seed: int, image_hw: tuple[int, int] = IMAGE_HW,
 
 # ---------------------------------------------------------------------------------------------
 # Shapes, FLOPs, memory
-
-
-def step_shape(parts: list[BatchPart], scenes: list[SceneWindows], settings: YnetSettings
-               ) -> tuple[int, int, int]:
-    """(batch, height, width) of the model input of one plan entry: the padded map of its
-    (rotated) scene, or the crop."""
-    batch = sum(len(rows) for *_, rows in parts)
-    if settings.crop:
-        return batch, settings.crop, settings.crop
-    s, turns = parts[0][:2]
-    height, width = scenes[s].semantic.shape[-2:]
-    if turns % 2:
-        height, width = width, height
-    return (batch, *padded_size(height, width))
 
 
 def warmup_plan(plan: list, shapes: list[tuple]) -> list:
@@ -192,7 +178,7 @@ class TrainingBench:
         self.model = conv_layout(YNet(self.config), device)
         self.optimizer = ynet_optimizer(self.model, settings, device)
         self.plan = epoch_plan(self.scenes, settings, np.random.default_rng(0))[:steps]
-        self.shapes = [step_shape(parts, self.scenes, settings) for parts in self.plan]
+        self.shapes = [plan_input_shape(parts, self.scenes, settings) for parts in self.plan]
 
     def run(self, plan: list) -> None:
         train_epoch(self.model, self.optimizer, self.scenes, self.settings, plan, 1, [], self.device)

@@ -34,10 +34,10 @@ from pipeline.config.eval import EvalParams
 from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.data.ynet_data import group_by_scene
 from pipeline.runners.short_term import ynet_options
 from pipeline.runners.ynet_scoring import Sampling, predict_samplings
-from pipeline.runners.ynet_training import YnetSettings
 from ynet.model import YNet
 
 STEPS = {  # printed name: function name in the profile (file suffix, function)
