@@ -26,7 +26,7 @@ DASK_ADDRESS ?=
 DASK_INSECURE ?=
 DASHBOARD ?=
 repro: env  # dvc repro, two single-threaded stages at once on 2 cores, each clocked (tools/timed_repro.py)
-	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python tools/timed_repro.py --jobs $(JOBS) \
+	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python -m tools.timed_repro --jobs $(JOBS) \
 		$(if $(DASK_ADDRESS),--address $(DASK_ADDRESS)) \
 		$(if $(filter 1 yes true,$(DASK_INSECURE)),--insecure) \
 		$(if $(DASHBOARD),--dashboard $(DASHBOARD))
@@ -40,7 +40,7 @@ test: env
 bench: env
 	@failed=""; waiting=""; \
 	for script in bench/bench_*.py; do \
-	  echo "== $$script"; PYTHONPATH=. $(BIN)/python $$script; status=$$?; \
+	  echo "== $$script"; $(BIN)/python -m bench.$$(basename $$script .py); status=$$?; \
 	  if [ $$status -eq 3 ]; then waiting="$$waiting $$script"; \
 	  elif [ $$status -ne 0 ]; then failed="$$failed $$script"; fi; \
 	done; \

@@ -5,7 +5,7 @@ Synthetic SDD-like tracks (about 20 px per 1 FPS step, slowly turning, some agen
 each model: seconds per training epoch (validation included) and seconds to draw K = 20 samples
 for the test windows; with the profile's epochs, the projected training time at this size.
 
-    python bench/bench_baselines.py [--profile cpu] [--epochs 2] [--threads 1] [--params params.yaml]
+    python -m bench.bench_baselines [--profile cpu] [--epochs 2] [--threads 1] [--params params.yaml]
                                     [--smoke]
 
 `--smoke`: 16 / 4 / 6 windows and one epoch (seconds: the code path, not a measurement).
@@ -17,7 +17,6 @@ config dataclasses' defaults (the paper settings) where a section is missing.
 from __future__ import annotations
 
 import dataclasses
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -25,14 +24,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common  # noqa: E402
-from pipeline.runners import baselines  # noqa: E402
-from pipeline.config.loading import load_profile, read_params  # noqa: E402
-from pipeline.data.window_table import WindowArrays  # noqa: E402
-from pipeline.models import window_set  # noqa: E402
-from pipeline.models.constant_velocity import ConstantVelocity  # noqa: E402
+from bench import common
+from pipeline.runners import baselines
+from pipeline.config.loading import load_profile, read_params
+from pipeline.data.window_table import WindowArrays
+from pipeline.models import window_set
+from pipeline.models.constant_velocity import ConstantVelocity
 
 N_PAST, N_FUTURE = 5, 30
 SIZES = {"train": 1000, "val": 150, "test": 382}  # the authors' release

@@ -1,23 +1,20 @@
 """Speed of the data stages on the real mirror (parse 23 raw videos, cut windows, import the release).
 
 The authors' long-term preprocessing of the same 23 raw videos into 62 windows took
-1.07 / 1.20 / 1.42 s (min / median / max) on this machine (../shared/reference/data-facts.md).
-Run from the repository root: `python bench/bench_data.py [--mirror ../shared/data] [--repeats 5]
+1.07 / 1.20 / 1.42 s (min / median / max) on this machine.
+Run from the repository root: `python -m bench.bench_data [--mirror ../shared/data] [--repeats 5]
 [--smoke]`; `--smoke` times each step once (a few seconds on the real mirror).
 """
 
 import statistics
-import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common  # noqa: E402
-from pipeline.config.windows import WindowParams  # noqa: E402
-from pipeline.data.checksums import read_manifest  # noqa: E402
-from pipeline.data.tracks import build_tracks  # noqa: E402
-from pipeline.data.windows import cut_pieces, cut_windows, raw_windows, release_windows  # noqa: E402
+from bench import common
+from pipeline.config.windows import WindowParams
+from pipeline.data.checksums import read_manifest
+from pipeline.data.tracks import build_tracks
+from pipeline.data.windows import cut_pieces, cut_windows, raw_windows, release_windows
 
 MIRROR_HOW = ("the data mirror (params.yaml fetch.locations); or `dvc repro fetch` and "
               "--mirror data/raw")

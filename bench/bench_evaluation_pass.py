@@ -8,7 +8,7 @@ semantic maps (`data/semantic_maps`) and the trained model (`data/ynet/model.pt`
 test windows evenly spaced over the table's order, the active profile's `eval` section and `ttst` /
 `cws`: the settings `evaluation_sequence` samples (main rounds, ablation, K_e x K_a grid).
 
-    python bench/bench_evaluation_pass.py [--windows 24] [--threads 2] [--smoke]
+    python -m bench.bench_evaluation_pass [--windows 24] [--threads 2] [--smoke]
 
 `--smoke`: an untrained Y-net of a few channels on 4 synthetic windows of one 256 x 256 scene, K_e 4
 and a K_a grid of 1 and 2 (seconds: the code path, not a measurement); no data needed.
@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import sys
 import time
 from pathlib import Path
 
@@ -29,24 +28,22 @@ import numpy as np
 import pandas as pd
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common  # noqa: E402
-from bench.bench_profiles import N_FUTURE, N_PAST, SMOKE_IMAGE_HW, synthetic_windows  # noqa: E402
-from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.config.cws import CwsParams  # noqa: E402
-from pipeline.config.eval import EvalParams  # noqa: E402
-from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
-from pipeline.config.ttst import TtstParams  # noqa: E402
-from pipeline.config.ynet import YnetSettings  # noqa: E402
-from pipeline.data.semantic_maps import load_semantic_maps  # noqa: E402
-from pipeline.data.window_table import WindowArrays, to_arrays  # noqa: E402
-from pipeline.data.ynet_data import SceneWindows, group_by_scene  # noqa: E402
-from pipeline.device import conv_layout  # noqa: E402
-from pipeline.runners.ynet_scoring import (load_for_scoring, predict_samplings,  # noqa: E402
+from bench import common
+from bench.bench_profiles import N_FUTURE, N_PAST, SMOKE_IMAGE_HW, synthetic_windows
+from bench.bench_ynet import keep_freed_memory
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.data.semantic_maps import load_semantic_maps
+from pipeline.data.window_table import WindowArrays, to_arrays
+from pipeline.data.ynet_data import SceneWindows, group_by_scene
+from pipeline.device import conv_layout
+from pipeline.runners.ynet_scoring import (load_for_scoring, predict_samplings,
                                            sequence_settings, setting_samplings)
-from pipeline.data.ynet_data import image_sizes  # noqa: E402
-from ynet.model import YNet  # noqa: E402
+from pipeline.data.ynet_data import image_sizes
+from ynet.model import YNet
 
 WINDOWS = Path("data/windows/release_tf30.parquet")
 MAPS = Path("data/semantic_maps")

@@ -11,7 +11,7 @@ optimiser is training's, and the warm-up runs every input shape the timed part w
 rotated scene is another shape; cuDNN autotunes and the allocator grows per shape), so the timed
 steps hold no set-up.
 
-    python bench/bench_profiles.py [--device auto|cpu|cuda] [--threads 2] [--steps 20] [--windows 32]
+    python -m bench.bench_profiles [--device auto|cpu|cuda] [--threads 2] [--steps 20] [--windows 32]
                                    [--profiles cpu,paper] [--data data] [--skip-stages] [--stage-steps 8]
                                    [--smoke]
 
@@ -41,7 +41,6 @@ from __future__ import annotations
 import dataclasses
 import os
 import resource
-import sys
 import time
 from pathlib import Path
 
@@ -49,27 +48,25 @@ import numpy as np
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common, projection  # noqa: E402
-from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from bench.stage_rates import smoke_params, stage_rates  # noqa: E402
-from pipeline.config.cws import CwsParams  # noqa: E402
-from pipeline.config.eval import EvalParams  # noqa: E402
-from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
-from pipeline.config.ttst import TtstParams  # noqa: E402
-from pipeline.config.ynet import YnetSettings  # noqa: E402
-from pipeline.data.window_table import WindowArrays  # noqa: E402
-from pipeline.data.ynet_data import SceneWindows, group_by_scene  # noqa: E402
-from pipeline.device import (SCORING, TRAINING, conv_layout, describe, select_device,  # noqa: E402
+from bench import common, projection
+from bench.bench_ynet import keep_freed_memory
+from bench.stage_rates import smoke_params, stage_rates
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import group_by_scene
+from pipeline.device import (SCORING, TRAINING, conv_layout, describe, select_device,
                              synchronize)
-from pipeline.runners.ynet_scoring import predict_scenes, sampling_options  # noqa: E402
-from pipeline.runners.ynet_training import (BatchPart, epoch_plan, train_epoch,  # noqa: E402
+from pipeline.runners.ynet_scoring import predict_scenes, sampling_options
+from pipeline.runners.ynet_training import (epoch_plan, plan_input_shape, train_epoch,
                                             ynet_optimizer)
-from ynet.heatmaps import padded_size  # noqa: E402
-from ynet.loss import ynet_loss  # noqa: E402
-from ynet.model import YNet, YNetConfig  # noqa: E402
-from ynet.sampling import SamplingOptions  # noqa: E402
+from ynet.heatmaps import padded_size
+from ynet.loss import ynet_loss
+from ynet.model import YNet, YNetConfig
+from ynet.sampling import SamplingOptions
 
 IMAGE_HW = (2048, 1664)  # original pixels of the synthetic scene
 SMOKE_IMAGE_HW = (256, 256)
@@ -96,20 +93,6 @@ def synthetic_windows(n: int, seed: int, image_hw: tuple[int, int] = IMAGE_HW,
 
 # ---------------------------------------------------------------------------------------------
 # Shapes, FLOPs, memory
-
-
-def step_shape(parts: list[BatchPart], scenes: list[SceneWindows], settings: YnetSettings
-               ) -> tuple[int, int, int]:
-    """(batch, height, width) of the model input of one plan entry: the padded map of its
-    (rotated) scene, or the crop."""
-    batch = sum(len(rows) for *_, rows in parts)
-    if settings.crop:
-        return batch, settings.crop, settings.crop
-    s, turns = parts[0][:2]
-    height, width = scenes[s].semantic.shape[-2:]
-    if turns % 2:
-        height, width = width, height
-    return (batch, *padded_size(height, width))
 
 
 def warmup_plan(plan: list, shapes: list[tuple]) -> list:
@@ -195,7 +178,7 @@ class TrainingBench:
         self.model = conv_layout(YNet(self.config), device)
         self.optimizer = ynet_optimizer(self.model, settings, device)
         self.plan = epoch_plan(self.scenes, settings, np.random.default_rng(0))[:steps]
-        self.shapes = [step_shape(parts, self.scenes, settings) for parts in self.plan]
+        self.shapes = [plan_input_shape(parts, self.scenes, settings) for parts in self.plan]
 
     def run(self, plan: list) -> None:
         train_epoch(self.model, self.optimizer, self.scenes, self.settings, plan, 1, [], self.device)

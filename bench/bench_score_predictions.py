@@ -6,7 +6,7 @@ writing a record: `long_term` (stage `score_predictions`: every
 same params. A part whose predictions folder does not exist yet is named with the stage that
 makes it, the other part still timed. Issue 24's target: under a minute on 2 cores.
 
-    OMP_NUM_THREADS=1 python bench/bench_score_predictions.py [--root .] [--params FILE] \
+    OMP_NUM_THREADS=1 python -m bench.bench_score_predictions [--root .] [--params FILE] \
         [--part long_term|short_term|all] [--repeats 3] [--profile 15] [--smoke]
 
 `--root`: the repository holding `data/` (e.g. the main checkout, from a worktree); `--params`:
@@ -26,7 +26,6 @@ import json
 import os
 import pstats
 import statistics
-import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -37,24 +36,22 @@ import numpy as np
 import pandas as pd
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's pipeline
-
-from bench import common  # noqa: E402
-from pipeline.benchmarks.sdd_long_term import (SDD_LONG_TERM, read_scales,  # noqa: E402
+from bench import common
+from pipeline.benchmarks.sdd_long_term import (SDD_LONG_TERM, read_scales,
                                                sdd_label_masks)
-from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD  # noqa: E402
-from pipeline.config.loading import load_section, read_params  # noqa: E402
-from pipeline.config.score_predictions import ScorePredictionsParams  # noqa: E402
-from pipeline.config.short_term import ShortTermParams  # noqa: E402
-from pipeline.config.windows import WindowParams  # noqa: E402
-from pipeline.data.window_table import conform  # noqa: E402
-from pipeline.dataset_list import SHORT_TERM_DATASETS  # noqa: E402
-from pipeline.harness.predictions import (concat_rounds, predictions_table,  # noqa: E402
+from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.score_predictions import ScorePredictionsParams
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.windows import WindowParams
+from pipeline.data.window_table import conform
+from pipeline.dataset_list import SHORT_TERM_DATASETS
+from pipeline.harness.predictions import (concat_rounds, predictions_table,
                                           write_predictions)
-from pipeline.harness.stored_scores import (score_benchmarks, score_tables,  # noqa: E402
+from pipeline.harness.stored_scores import (score_benchmarks, score_tables,
                                             short_term_tables)
-from pipeline.io import write_parquet  # noqa: E402
-from ynet.segmentation import CLASS_NAMES  # noqa: E402
+from pipeline.io import write_parquet
+from ynet.segmentation import CLASS_NAMES
 
 # The stages' inputs, relative to the repository (as dvc.yaml names them).
 PREDICTIONS = {"long_term": "data/predictions/long_term",

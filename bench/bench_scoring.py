@@ -10,7 +10,7 @@ Two cases:
 Predictions are the truth plus noise growing with the step; masks are random blocks of classes.
 The machine is usually shared: times are an upper bound; the load average is printed with them.
 
-    OMP_NUM_THREADS=1 python bench/bench_scoring.py [--repeats 3] [--smoke]
+    OMP_NUM_THREADS=1 python -m bench.bench_scoring [--repeats 3] [--smoke]
 
 `--smoke`: two scenes of a few agents per case, one run (seconds: the code path, not a measurement).
 """
@@ -19,19 +19,15 @@ from __future__ import annotations
 
 import os
 import statistics
-import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy.stats import gaussian_kde
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common  # noqa: E402
-from pipeline.benchmarks.base import class_values  # noqa: E402
-from pipeline.harness import scoring  # noqa: E402
+from bench import common
+from pipeline.benchmarks.base import class_values
+from pipeline.harness import scoring
 
 SMOKE = {"scenes": 2, "agents": 6, "max_windows": 40}  # what --smoke changes in each case
 

@@ -5,7 +5,7 @@ Adam step) with the settings of params.yaml, on the real training scenes when st
 (else on random scenes of the same size: the network's speed does not depend on the pixels). The
 machine is usually shared, so the load average is printed next to the numbers.
 
-    python bench/bench_segmentation.py [--sdd data/raw/sdd] [--labels data/labels] [--profile paper]
+    python -m bench.bench_segmentation [--sdd data/raw/sdd] [--labels data/labels] [--profile paper]
                                        [--steps 10] [--threads 1] [--smoke]
 
 `--smoke`: random scenes, 64 x 64 crops in batches of 2, one timed step (seconds: the code path,
@@ -16,23 +16,20 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common  # noqa: E402
-from pipeline.device import cpu_has_bf16  # noqa: E402
-from pipeline.data.labels import read_index  # noqa: E402
-from pipeline.config.loading import load_profile, read_params  # noqa: E402
-from pipeline.config.segmentation import SegmentationParams  # noqa: E402
-from pipeline.runners.segmentation import (epoch_batches, load_training_scenes,  # noqa: E402
+from bench import common
+from pipeline.device import cpu_has_bf16
+from pipeline.data.labels import read_index
+from pipeline.config.loading import load_profile, read_params
+from pipeline.config.segmentation import SegmentationParams
+from pipeline.runners.segmentation import (epoch_batches, load_training_scenes,
                                            train_step, unet_config)
-from ynet.segmentation import UNet  # noqa: E402
+from ynet.segmentation import UNet
 
 N_TRAIN_VIDEOS = 30  # TrajNet train videos, for the epoch estimate on synthetic scenes
 

@@ -9,7 +9,7 @@ fixed seeded sample of that benchmark's *validation* windows (never the test set
 - at the profile's `eval_batch_size`, the share of the time in each step (cProfile, cumulative
   seconds of the functions named below; the profiler's own overhead inflates the many small calls).
 
-    python bench/bench_short_term_scoring.py --dataset univ --windows-sample 400 --batch-sizes 4 16 64
+    python -m bench.bench_short_term_scoring --dataset univ --windows-sample 400 --batch-sizes 4 16 64
 
 (ETH/UCY's univ alone has 24,334 test windows: its scoring dominates the short-term stages.)
 `--smoke`: an untrained short-term Y-net of a few channels (the profile's crops) on 6 synthetic
@@ -22,27 +22,23 @@ from __future__ import annotations
 import cProfile
 import os
 import pstats
-import sys
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common, short_term_validation  # noqa: E402
-from bench.bench_training_precision import SMOKE_IMAGE_HW, synthetic_windows  # noqa: E402
-from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.config.eval import EvalParams  # noqa: E402
-from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
-from pipeline.config.short_term import ShortTermParams  # noqa: E402
-from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
-from pipeline.data.ynet_data import group_by_scene  # noqa: E402
-from pipeline.runners.short_term import ynet_options  # noqa: E402
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
-from pipeline.runners.ynet_training import YnetSettings  # noqa: E402
-from ynet.model import YNet  # noqa: E402
+from bench import common, short_term_validation
+from bench.bench_training_precision import SMOKE_IMAGE_HW, synthetic_windows
+from pipeline.benchmarks.registry import short_term
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.data.ynet_data import group_by_scene
+from pipeline.runners.short_term import ynet_options
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings
+from ynet.model import YNet
 
 STEPS = {  # printed name: function name in the profile (file suffix, function)
     "input crops and distance maps": ("ynet_data.py", "window_inputs"),

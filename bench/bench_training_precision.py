@@ -14,7 +14,7 @@ synthetic windows (no data needed), with each profile's settings from params.yam
 With `--threads 1`, against the default 2, it shows what one core does alone: whether two
 trainings side by side on one thread each would beat one after the other on two.
 
-    python bench/bench_training_precision.py [--steps 12] [--threads 2] [--smoke]
+    python -m bench.bench_training_precision [--steps 12] [--threads 2] [--smoke]
 
 `--smoke`: Y-nets of a few channels on 1024 x 1024 scenes, one timed step per case (seconds: the
 code path, not a measurement).
@@ -23,28 +23,24 @@ code path, not a measurement).
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common  # noqa: E402
-from bench.bench_profiles import IMAGE_HW  # noqa: E402
-from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.benchmarks.ethucy import FOLDS  # noqa: E402
-from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD  # noqa: E402
-from pipeline.device import cpu_has_bf16  # noqa: E402
-from pipeline.config.loading import load_profile, read_params  # noqa: E402
-from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
-from pipeline.config.ynet import YnetSettings  # noqa: E402
-from pipeline.data.window_table import WindowArrays  # noqa: E402
-from pipeline.data.ynet_data import group_by_scene  # noqa: E402
-from pipeline.runners.ynet_training import epoch_plan, train_epoch  # noqa: E402
-from ynet.model import YNet  # noqa: E402
+from bench import common
+from bench.bench_profiles import IMAGE_HW
+from bench.bench_ynet import keep_freed_memory
+from pipeline.benchmarks.ethucy import FOLDS
+from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD
+from pipeline.device import cpu_has_bf16
+from pipeline.config.loading import load_profile, read_params
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.data.window_table import WindowArrays
+from pipeline.data.ynet_data import group_by_scene
+from pipeline.runners.ynet_training import epoch_plan, train_epoch
+from ynet.model import YNet
 
 
 SMOKE_IMAGE_HW = (1024, 1024)

@@ -1,9 +1,9 @@
-"""Speed of `ynet` on CPU against the authors' code (figures in shared/reference/data-facts.md).
+"""Speed of `ynet` on CPU against the authors' code (their figures: `AUTHORS` below).
 
 Not a test: prints numbers. Random weights and a random 6-class semantic map, padded 512 x 416 input
 (deathCircle_0 at resize 0.25), long-term SDD config (n_p 5, n_f 30, waypoints 14 and 29).
 
-    python bench/bench_ynet.py --threads 2 --repeats 3 [--profile cpu|paper] [--smoke]
+    python -m bench.bench_ynet --threads 2 --repeats 3 [--profile cpu|paper] [--smoke]
 
 Timings are wall-clock min / median / max over `--repeats` runs after one warm-up. On a shared
 machine they are noisy: the load average is printed with each line. With 2 threads on 2 cores that
@@ -32,17 +32,15 @@ from pathlib import Path
 
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common  # noqa: E402
-from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
-from pipeline.config.ttst import TtstParams  # noqa: E402
-from pipeline.config.ynet import YnetSettings  # noqa: E402
-from ynet.config import upstream_max_distance  # noqa: E402
-from ynet.heatmaps import distance_maps, gaussian_heatmaps, padded_size, scene_and_past  # noqa: E402
-from ynet.loss import ynet_loss  # noqa: E402
-from ynet.model import YNet, YNetConfig  # noqa: E402
-from ynet.sampling import SamplingOptions, predict, sample_waypoints, softargmax  # noqa: E402
+from bench import common
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet import YnetSettings
+from ynet.config import upstream_max_distance
+from ynet.heatmaps import distance_maps, gaussian_heatmaps, padded_size, scene_and_past
+from ynet.loss import ynet_loss
+from ynet.model import YNet, YNetConfig
+from ynet.sampling import SamplingOptions, predict, sample_waypoints, softargmax
 
 KEEP_FREED_MEMORY = "glibc.malloc.mmap_threshold=4294967296:glibc.malloc.trim_threshold=17179869184"
 AUTHORS = {

@@ -11,7 +11,7 @@ bound no number of GPUs beats. Stages without a rate (the scoring stages, the CP
 left out and listed. The ETH/UCY Y-net rate, never measured, is the SDD rate scaled by the map
 pixels their training samples see at their resizes (Y-net's FLOPs grow with the pixels).
 
-    python bench/cluster_projection.py --rates bench/rates/h100-2026-11-24.json [--gpus 1 4 8]
+    python -m bench.cluster_projection --rates bench/rates/h100-2026-11-24.json [--gpus 1 4 8]
 
 `--smoke`: fixture counts, rates and map sizes, no data/ read: the code path in a second.
 """
@@ -21,23 +21,20 @@ from __future__ import annotations
 import heapq
 import json
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common  # noqa: E402
-from bench.projection import (YNET_ETHUCY, YNET_SDD, Count, StagePlan, count_keys,  # noqa: E402
+from bench import common
+from bench.projection import (YNET_ETHUCY, YNET_SDD, Count, StagePlan, count_keys,
                               paper, paper_stages, short_term_datasets, stage_hours, window_counts)
-from pipeline.benchmarks.ethucy import FOLDS  # noqa: E402
-from pipeline.config.loading import load_section, read_params  # noqa: E402
-from pipeline.config.short_term import ShortTermParams  # noqa: E402
-from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
-from pipeline.config.ynet import YnetSettings  # noqa: E402
-from ynet.heatmaps import padded_size  # noqa: E402
+from pipeline.benchmarks.ethucy import FOLDS
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
+from ynet.heatmaps import padded_size
 
 GPUS = (1, 4, 8)
 SEMANTIC_MAPS = "semantic_maps"

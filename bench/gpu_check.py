@@ -15,7 +15,7 @@ DVC). On a CUDA device, with the `paper` profile's settings (params.yaml):
    `torch.cuda.set_sync_debug_mode("warn")` reports them (the warnings caught and counted);
 5. the segmentation, S-GAN and PECNet training rates (`bench/stage_rates.py`) and the hours of
    every `paper` training stage (`bench/projection.py`; counts from --data's window tables, else
-   unknown: `python bench/projection.py --rates <the JSON>` projects them later where data/ is).
+   unknown: `python -m bench.projection --rates <the JSON>` projects them later where data/ is).
 
 Each part is timed after a warm-up on its shapes (`bench/bench_profiles.py`) and runs on its own:
 one that fails records its error and the rest go on. Prints everything and writes
@@ -23,9 +23,9 @@ one that fails records its error and the rest go on. Prints everything and write
 default $OUT), or the JSON to --out itself if it ends in .json. `--rates-file` also writes the
 measured rates in the layout of `bench/rates/` (device, rates, sources) for the projection.
 
-    python bench/gpu_check.py --out "$OUT"          # a GPU machine: a few minutes
-    python bench/gpu_check.py --out "$OUT" --rates-file "$OUT/h200-<date>.json"
-    python bench/gpu_check.py --smoke --out /tmp/x  # anywhere: tiny sizes, CUDA parts skipped, < 1 min
+    python -m bench.gpu_check --out "$OUT"          # a GPU machine: a few minutes
+    python -m bench.gpu_check --out "$OUT" --rates-file "$OUT/h200-<date>.json"
+    python -m bench.gpu_check --smoke --out /tmp/x  # anywhere: tiny sizes, CUDA parts skipped, < 1 min
 """
 
 from __future__ import annotations
@@ -35,7 +35,6 @@ import dataclasses
 import json
 import os
 import subprocess
-import sys
 import time
 import traceback
 import warnings
@@ -46,22 +45,20 @@ from pathlib import Path
 import torch
 from torch.autograd import DeviceType
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench import common, projection  # noqa: E402
-from bench.bench_profiles import (IMAGE_HW, ScoringBench, TrainingBench, gib,  # noqa: E402
+from bench import common, projection
+from bench.bench_profiles import (IMAGE_HW, ScoringBench, TrainingBench, gib,
                                   main_options, profile_settings, warmup_rows)
-from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from bench.stage_rates import smoke_params, stage_rates  # noqa: E402
-from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.config.eval import EvalParams  # noqa: E402
-from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
-from pipeline.config.short_term import ShortTermParams  # noqa: E402
-from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
-from pipeline.config.ynet import YnetSettings  # noqa: E402
-from pipeline.device import SCORING, TRAINING, describe, select_device, synchronize  # noqa: E402
-from pipeline.runners.short_term import ynet_options  # noqa: E402
-from ynet.sampling import SamplingOptions  # noqa: E402
+from bench.bench_ynet import keep_freed_memory
+from bench.stage_rates import smoke_params, stage_rates
+from pipeline.benchmarks.registry import short_term
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.device import SCORING, TRAINING, describe, select_device, synchronize
+from pipeline.runners.short_term import ynet_options
+from ynet.sampling import SamplingOptions
 
 SMOKE_IMAGE_HW = (512, 416)  # a quarter of the SDD-sized scene per side: 128 x 104 at resize 0.25
 ETHUCY_IMAGE_HW = (576, 720)  # a UCY scene (zara, univ; hotel too) in oracle pixels

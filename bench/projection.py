@@ -10,7 +10,7 @@ measured (the ETH/UCY Y-nets: their maps differ from the SDD map the benches tim
 Used by `bench/bench_profiles.py` and `bench/gpu_check.py`. A GPU check run where `data/` was not at
 hand can be projected afterwards, here, with this checkout's tables:
 
-    python bench/projection.py --rates gpu_check.json [--data data]
+    python -m bench.projection --rates gpu_check.json [--data data]
 """
 
 from __future__ import annotations
@@ -18,26 +18,23 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import pandas as pd
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench.bench_baselines import N_FUTURE, N_PAST  # noqa: E402
-from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.config.baseline_seeds import BaselineSeedsParams  # noqa: E402
-from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
-from pipeline.config.segmentation import SegmentationParams  # noqa: E402
-from pipeline.config.short_term import ShortTermParams  # noqa: E402
-from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
-from pipeline.config.windows import WindowParams  # noqa: E402
-from pipeline.config.ynet import YnetSettings  # noqa: E402
-from pipeline.config.ynet_horizons import HorizonParams  # noqa: E402
-from pipeline.config.ynet_seeds import YnetSeedsParams  # noqa: E402
-from pipeline.runners import baselines  # noqa: E402
+from bench.bench_baselines import N_FUTURE, N_PAST
+from pipeline.benchmarks.registry import short_term
+from pipeline.config.baseline_seeds import BaselineSeedsParams
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.segmentation import SegmentationParams
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.windows import WindowParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.config.ynet_horizons import HorizonParams
+from pipeline.config.ynet_seeds import YnetSeedsParams
+from pipeline.runners import baselines
 
 RELEASE_TABLE = "windows/release_tf30.parquet"
 LABEL_INDEX = "labels/index.json"

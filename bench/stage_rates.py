@@ -13,7 +13,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import io
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,16 +20,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bench.bench_baselines import N_FUTURE, N_PAST, synthetic_windows  # noqa: E402
-from bench.projection import PECNET, SEGMENTATION, SGAN, paper  # noqa: E402
-from pipeline.config.loading import load_section  # noqa: E402
-from pipeline.config.segmentation import SegmentationParams  # noqa: E402
-from pipeline.config.train_baseline import TrainBaselineParams  # noqa: E402
-from pipeline.device import synchronize  # noqa: E402
-from pipeline.runners import baselines  # noqa: E402
-from pipeline.runners import segmentation  # noqa: E402
+from bench.bench_baselines import N_FUTURE, N_PAST, synthetic_windows
+from bench.projection import PECNET, SEGMENTATION, SGAN, paper
+from pipeline.config.loading import load_section
+from pipeline.config.segmentation import SegmentationParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.device import synchronize
+from pipeline.runners import baselines
+from pipeline.runners import segmentation
 
 SCENE_HW = (512, 384)  # a downsampled SDD scene (bench/bench_segmentation.py's synthetic size)
 

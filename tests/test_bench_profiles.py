@@ -1,14 +1,15 @@
-"""What `bench/bench_profiles.py` times and counts: the input shape of a training step, a warm-up
-that meets every timed shape, and the FLOP counts behind its TFLOP/s."""
+"""What `bench/bench_profiles.py` times and counts: the input shape of a training step (the
+runner's `plan_input_shape`), a warm-up that meets every timed shape, and the FLOP counts behind
+its TFLOP/s."""
 
 from types import SimpleNamespace
 
 import numpy as np
 import torch
 
-from bench.bench_profiles import (scoring_flops, step_shape, training_flops, warmup_plan,
-                                  warmup_rows)
+from bench.bench_profiles import scoring_flops, training_flops, warmup_plan, warmup_rows
 from pipeline.config.ynet import YnetSettings
+from pipeline.runners.ynet_training import plan_input_shape
 from ynet.model import YNetConfig
 
 
@@ -16,15 +17,15 @@ def scene(height, width):
     return SimpleNamespace(semantic=torch.zeros(6, height, width))
 
 
-def test_step_shape_pads_and_turns_the_map():
+def test_a_plan_entrys_input_shape_pads_and_turns_the_map():
     settings = YnetSettings()
     scenes = [scene(100, 70)]
     rows = np.arange(3)
-    assert step_shape([(0, 0, False, rows)], scenes, settings) == (3, 128, 96)
-    assert step_shape([(0, 1, True, rows)], scenes, settings) == (3, 96, 128)
-    assert step_shape([(0, 2, False, rows[:1])], scenes, settings) == (1, 128, 96)
+    assert plan_input_shape([(0, 0, False, rows)], scenes, settings) == (3, 128, 96)
+    assert plan_input_shape([(0, 1, True, rows)], scenes, settings) == (3, 96, 128)
+    assert plan_input_shape([(0, 2, False, rows[:1])], scenes, settings) == (1, 128, 96)
     cropped = YnetSettings(crop=64)
-    assert step_shape([(0, 1, False, rows)], scenes, cropped) == (3, 64, 64)
+    assert plan_input_shape([(0, 1, False, rows)], scenes, cropped) == (3, 64, 64)
 
 
 def test_the_warm_up_meets_every_timed_shape_once():

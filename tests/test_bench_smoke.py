@@ -1,6 +1,7 @@
 """Every speed benchmark `bench/bench_*.py` runs with `--smoke` (tiny sizes, synthetic inputs, one
-thread, seconds) and prints numbers, so a changed signature breaks a test, not the next person who
-runs the benchmark; a new benchmark without a smoke mode fails here. The experiments of
+thread, seconds) and prints its own result lines, so a changed signature breaks a test, not the next
+person who runs the benchmark; a new benchmark without a smoke mode, or without its result lines
+in `RESULT_LINES`, fails here. The experiments of
 `docs/experiments/` need trained models to run at all: they are only imported. A missing pipeline
 output makes a benchmark exit `NEEDS_PIPELINE`, naming the file and the stage (`make bench`)."""
 
@@ -23,30 +24,63 @@ BENCHMARKS = sorted(ROOT.glob("bench/bench_*.py"))
 EXPERIMENTS = sorted((ROOT / "docs" / "experiments").glob("*.py"))
 MIRROR = ROOT.parent / "shared" / "data"
 NEEDS_MIRROR = {"bench_data.py"}  # times the data stages on the raw mirror (cheap: one repeat)
-NUMBER = re.compile(r"\d+\.\d+")
+# Lines only a benchmark's body prints, each with a measured number: a header (the torch version,
+# the load average) has numbers too, so one whose body stopped running would still print some.
+RESULT_LINES = {
+    "bench_baselines": [r"^sgan +\d+\.\d+ +\d+", r"^constant_velocity +\d+\.\d+$"],
+    "bench_data": [r"^parse \d+ videos, .* \d+\.\d+ s$",
+                   r"^verify \+ import release .* \d+\.\d+ s$"],
+    "bench_evaluation_pass": [r"^one pass, each batch encoded once +\d+\.\d+",
+                              r"^identical predictions: (True|False)$"],
+    "bench_profiles": [r"^cpu +\d+\.\d+ +\d+x\d+ .* GiB$",
+                       r"^paper +\d+\.\d+ +\d+x\d+ .* GiB$",
+                       r"^  segmentation +\d+\.\d+ crops/s"],
+    "bench_score_predictions": [r"^long_term: wall time, median of \d+: \d+\.\d+ s",
+                                r"^short_term: wall time, median of \d+: \d+\.\d+ s"],
+    "bench_scoring": [r"^  min_ade_fde +\d+\.\d+$", r"^  total +\d+\.\d+$"],
+    "bench_segmentation": [r"^  augmented crops: +\d+\.\d+ crops/s",
+                           r"^  training step: +\d+\.\d+ crops/s"],
+    "bench_short_term_scoring": [r"^ +\d+ +\d+\.\d+$",
+                                 r"^  trajectory decoder +\d+\.\d+ ms per window"],
+    "bench_training_precision": [r"^  long-term, batch \d+, float32 +\d+\.\d+ samples/s",
+                                 r"^  short-term ETH/UCY crops, .*bf16 +\d+\.\d+ samples/s"],
+    "bench_ynet": [r"^  batch 1 NCHW +: \d+\.\d+ ", r"^  K_a 1 fp32 +: \d+\.\d+ ",
+                   r"^  trajectory decoder \(batched, shared skips\) +\d+\.\d+ s"],
+}
+
+
+def missing_results(name: str, stdout: str) -> list[str]:
+    """The result-line patterns of benchmark `name` that no line of `stdout` matches."""
+    return [pattern for pattern in RESULT_LINES[name] if not re.search(pattern, stdout, re.M)]
 
 
 @pytest.mark.parametrize("script", BENCHMARKS, ids=lambda path: path.stem)
-def test_the_benchmark_runs_with_smoke_and_prints_numbers(script):
+def test_the_benchmark_runs_with_smoke_and_prints_its_results(script):
     if script.name in NEEDS_MIRROR and not MIRROR.exists():
         pytest.skip(f"{MIRROR} not on this machine")
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1",
+    env = {**os.environ, "OMP_NUM_THREADS": "1",
            "GLIBC_TUNABLES": KEEP_FREED_MEMORY}  # as the stages run: no re-execution to set it
-    done = subprocess.run([sys.executable, str(script), "--smoke"], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=300)
+    done = subprocess.run([sys.executable, "-m", f"bench.{script.stem}", "--smoke"], cwd=ROOT,
+                          env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, f"exit {done.returncode}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
-    assert NUMBER.search(done.stdout), done.stdout[-2000:]
+    assert missing_results(script.stem, done.stdout) == [], done.stdout[-2000:]
 
 
-def test_the_benchmarks_are_found():
+def test_the_benchmarks_are_found_each_with_its_result_lines():
     assert len(BENCHMARKS) >= 10 and ROOT / "bench" / "bench_ynet.py" in BENCHMARKS
+    assert sorted(RESULT_LINES) == [script.stem for script in BENCHMARKS]
+
+
+def test_a_header_alone_is_no_result():
+    """What a benchmark whose body was removed prints: its header, numbers and all."""
+    header = "torch 2.13.0+cpu, 1 threads, load average 5.06 4.65 3.17\nload average 5.16; 2 cores"
+    assert all(missing_results(name, header) == RESULT_LINES[name] for name in RESULT_LINES)
 
 
 @pytest.mark.parametrize("script", EXPERIMENTS, ids=lambda path: path.stem)
-def test_the_experiment_imports(script, monkeypatch):
-    """What an experiment imports still exists (run as a script, its folder is on sys.path)."""
-    monkeypatch.syspath_prepend(str(script.parent))
-    importlib.import_module(script.stem)
+def test_the_experiment_imports(script):
+    """What an experiment imports still exists (run as `python -m docs.experiments.<name>`)."""
+    importlib.import_module(f"docs.experiments.{script.stem}")
 
 
 def test_a_missing_output_names_its_stage_and_exits_needs_pipeline(tmp_path, capsys):
@@ -66,10 +100,9 @@ def test_a_missing_output_names_its_stage_and_exits_needs_pipeline(tmp_path, cap
 
 def test_a_benchmark_without_its_inputs_exits_needs_pipeline(tmp_path):
     """Not in smoke mode, in a folder without data/: the distinct exit `make bench` goes on after."""
-    done = subprocess.run([sys.executable, str(ROOT / "bench" / "bench_score_predictions.py"),
-                           "--root", str(tmp_path)], cwd=ROOT,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True,
-                          text=True, timeout=300)
+    done = subprocess.run([sys.executable, "-m", "bench.bench_score_predictions",
+                           "--root", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=300)
     assert done.returncode == common.NEEDS_PIPELINE, done.stderr[-3000:]
     assert (f"needs {tmp_path / 'data/predictions/long_term'}: run `dvc repro score_predictions`"
             in done.stdout)

@@ -9,7 +9,6 @@ import ipaddress
 import os
 import socket
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -18,12 +17,9 @@ import psutil
 import pytest
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-
-import parallel_repro  # noqa: E402
-import timed_repro  # noqa: E402
-from parallel_repro import SetupError  # noqa: E402
-from tests.test_parallel_repro import DVC, PYTHON, clean  # noqa: E402
+from tests.test_parallel_repro import DVC, PYTHON, clean
+from tools import parallel_repro, timed_repro
+from tools.parallel_repro import SetupError
 
 NETWORK_TCP = "tcp://192.0.2.1:8786"  # TEST-NET-1 (RFC 5737): refused before any traffic
 # a stage that says when it runs, then waits until the test has looked around
@@ -124,11 +120,11 @@ def test_the_certificate_paths_come_from_the_environment_too(tmp_path):
     env = {**os.environ, "DASK_DISTRIBUTED__COMM__TLS__CA_FILE": str(tmp_path / "ca.pem"),
            "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT": str(tmp_path / "client.pem"),
            "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY": str(tmp_path / "client.key")}
-    tools = Path(__file__).resolve().parents[1] / "tools"
     shown = subprocess.run(
-        [PYTHON, "-c", "import parallel_repro; s = parallel_repro.check_address("
+        [PYTHON, "-c", "from tools import parallel_repro; s = parallel_repro.check_address("
          "'tls://192.0.2.1:8786'); print(s.tls_ca_file, s.tls_client_cert, s.tls_client_key)"],
-        cwd=tools, env=env, capture_output=True, text=True, check=True).stdout.split()
+        cwd=Path(__file__).resolve().parents[1], env=env, capture_output=True, text=True,
+        check=True).stdout.split()
     assert shown == [str(tmp_path / name) for name in ("ca.pem", "client.pem", "client.key")]
 
 

@@ -2,7 +2,6 @@
 of the `paper` workload on G GPUs, the tasks it builds from the stage plan, the ETH/UCY rate it
 estimates from map pixels, and its smoke run."""
 
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -130,9 +129,8 @@ def test_the_table_gives_speed_up_and_utilisation():
 
 
 def test_the_smoke_run_prints_the_table_and_the_critical_path():
-    done = subprocess.run([sys.executable, str(ROOT / "bench" / "cluster_projection.py"), "--smoke"],
-                          cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True,
-                          text=True, timeout=300)
+    done = subprocess.run([sys.executable, "-m", "bench.cluster_projection", "--smoke"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-3000:]
     assert "critical path:" in done.stdout and "utilisation" in done.stdout
     assert cp.ESTIMATED_FROM_FLOPS in done.stdout

@@ -21,12 +21,9 @@ import psutil
 import pytest
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-
-import parallel_repro  # noqa: E402
-import stage_worker  # noqa: E402
-from parallel_repro import SetupError  # noqa: E402
-from tests.test_parallel_repro import DVC, PYTHON, clean, make_project  # noqa: E402
+from tests.test_parallel_repro import DVC, PYTHON, clean, make_project
+from tools import parallel_repro, stage_worker
+from tools.parallel_repro import SetupError
 
 # a fake GPU stage: records which device it was given and when it ran; it ends once two such
 # stages have started (or after 10 s), so two that run side by side overlap however slow the

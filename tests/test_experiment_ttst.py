@@ -1,11 +1,6 @@
 """The TTST grid of `docs/experiments/short_term_ttst.py`: the profile's setting first, none twice."""
 
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "experiments"))
-
-from short_term_ttst import ttst_grid  # noqa: E402
+from docs.experiments.short_term_ttst import ttst_grid
 
 
 def test_ttst_grid_puts_the_profile_first_and_drops_repeats():

@@ -1,10 +1,10 @@
-"""`bench/gpu_check.py --smoke` runs end to end on the CPU and writes its JSON and text: what a GPU
-session runs as one command must not first fail there. The CUDA-only parts say they were skipped
-there; their code (the profile, the sync count) runs here with the CPU standing in for the GPU."""
+"""`python -m bench.gpu_check --smoke` runs end to end on the CPU and writes its JSON and text:
+what a GPU session runs as one command must not first fail there. The CUDA-only parts say they
+were skipped there; their code (the profile, the sync count) runs here with the CPU standing in
+for the GPU."""
 
 import dataclasses
 import json
-import os
 import subprocess
 import sys
 import warnings
@@ -35,11 +35,10 @@ RATES = {"ynet_sdd", "ynet_ethucy", "segmentation", "sgan", "pecnet"}
 def test_the_smoke_run_writes_every_part_with_positive_rates(tmp_path):
     out = tmp_path / "out"
     done = subprocess.run(
-        [sys.executable, "bench/gpu_check.py", "--smoke", "--device", "cpu", "--threads", "1",
+        [sys.executable, "-m", "bench.gpu_check", "--smoke", "--device", "cpu", "--threads", "1",
          "--out", str(out), "--data", str(tmp_path / "no_data"),
          "--rates-file", str(tmp_path / "rates" / "cpu-smoke.json")],
-        cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, text=True,
-        timeout=240)
+        cwd=ROOT, capture_output=True, text=True, timeout=240)
     assert done.returncode == 0, done.stderr[-3000:]
     report = json.loads((out / "gpu_check.json").read_text())
     assert KEYS <= set(report)

@@ -1,5 +1,6 @@
-"""The shape of `pipeline/` and `ynet/`, from their import graph: floors that import only from
-the floors below them, and stages as thin entry points on top.
+"""The shape of `pipeline/` and `ynet/`, and of `tools/` and `bench/` that use them, from their
+import graph: floors that import only from the floors below them, and stages, tools and benchmarks
+as entry points on top.
 
 (a) no module of `pipeline/stages` imports another module of `pipeline/stages`;
 (b) no module outside `pipeline/stages` imports `pipeline.stages` (or anything in it);
@@ -7,7 +8,8 @@ the floors below them, and stages as thin entry points on top.
 (d) every stage module is named as a stage of dvc.yaml, and every stage runs the module of its name;
 (e) every module is on exactly one floor of `FLOORS`, and imports only its own floor and the floors
     that floor may import, all of them lower (ARCHITECTURE.md's "The packages" shows the same table);
-(f) no import cycle: within a floor too, two modules never need each other.
+(f) no import cycle: within a floor too, two modules never need each other;
+(g) tools/ and bench/ import no private name (`_name`) of the library: they call its public API.
 Each check runs on the real tree and, to show it can fail, on a deliberately bad one.
 """
 
@@ -23,11 +25,16 @@ import yaml
 from pipeline.code_graph import PACKAGES, REPO, imported_modules, module_name
 
 STAGES = "pipeline.stages"
+# Entry points beside the stages: they use the library and no floor may import them. Not in
+# `pipeline.code_graph.PACKAGES`, whose files make the stages' code fingerprints.
+ENTRY_PACKAGES = ("tools", "bench")
+CHECKED = (*PACKAGES, *ENTRY_PACKAGES)
 
 # The floors, lowest first: (floor, its modules, the floors it may import besides its own). A name
 # ending in ".*" stands for everything inside that package; `pipeline` is the package's own
 # __init__.py (no code), which Python runs before any module of it.
 BELOW_MODELS = ("ynet", "facts", "config", "foundation", "data", "benchmarks")
+LIBRARY = (*BELOW_MODELS, "models", "harness", "runners", "studies", "report", "code")
 FLOORS = (
     ("ynet", ("ynet", "ynet.*"), ()),
     ("facts", ("pipeline", "pipeline.splits", "pipeline.model_list", "pipeline.dataset_list"), ()),
@@ -47,16 +54,17 @@ FLOORS = (
     # stage (code_fingerprints), the tools and the tests import it
     ("code", ("pipeline.code_graph",), ()),
     # a stage never imports another stage: test_no_stage_imports_another_stage
-    ("stages", ("pipeline.stages", "pipeline.stages.*"),
-     (*BELOW_MODELS, "models", "harness", "runners", "studies", "report", "code")),
+    ("stages", ("pipeline.stages", "pipeline.stages.*"), LIBRARY),
+    ("tools", ("tools", "tools.*"), LIBRARY),
+    ("bench", ("bench", "bench.*"), LIBRARY),
 )
 
 
 def graph(root: Path) -> dict[str, set[str]]:
-    """Module name -> the project modules (and names) it imports, for every .py of `PACKAGES`."""
+    """Module name -> the project modules (and names) it imports, for every .py of `CHECKED`."""
     return {module_name(path, root): {n for n in imported_modules(path, root)
-                                       if n.split(".")[0] in PACKAGES}
-            for package in PACKAGES if (root / package).is_dir()
+                                       if n.split(".")[0] in CHECKED}
+            for package in CHECKED if (root / package).is_dir()
             for path in sorted((root / package).rglob("*.py"))}
 
 
@@ -101,6 +109,20 @@ def floor_breaches(modules: dict[str, set[str]]) -> list[str]:
             floors = floors_of(target)
             if len(floors) != 1 or floors[0] not in allowed[floors_of(module)[0]]:
                 found.add(f"{module} imports {target}")
+    return sorted(found)
+
+
+def private_imports(modules: dict[str, set[str]]) -> list[str]:
+    """Every library name starting with `_` that a module of `ENTRY_PACKAGES` imports."""
+    found = set()
+    for module, names in modules.items():
+        if module.split(".")[0] not in ENTRY_PACKAGES:
+            continue
+        for name in names:
+            target = module_of(name, modules)
+            inside = name[len(target) + 1:].split(".") if name != target else []
+            if target.split(".")[0] in PACKAGES and any(part.startswith("_") for part in inside):
+                found.add(f"{module} imports {name}")
     return sorted(found)
 
 
@@ -211,6 +233,12 @@ def test_no_import_cycle():
     assert on_cycles(graph(REPO)) == []
 
 
+def test_tools_and_benchmarks_import_no_private_name():
+    modules = graph(REPO)
+    assert "tools.timed_repro" in modules and "bench.bench_segmentation" in modules
+    assert private_imports(modules) == []
+
+
 # ---------------------------------------------------------------------------------------------
 # The checks catch what they are for
 
@@ -251,7 +279,8 @@ def test_the_checks_catch_bad_imports_and_missing_mains(bad_tree):
 
 @pytest.fixture
 def upward_tree(tmp_path) -> Path:
-    """A tiny project whose floors import upwards, a module on no floor and two import cycles."""
+    """A tiny project whose floors import upwards, a module on no floor, two import cycles, a
+    library module importing a benchmark and a benchmark importing a tool and a private name."""
     for rel in ("pipeline/__init__.py", "pipeline/data/__init__.py", "pipeline/harness/__init__.py",
                 "pipeline/runners/__init__.py", "pipeline/report/__init__.py",
                 "pipeline/stages/__init__.py", "ynet/__init__.py"):
@@ -273,14 +302,20 @@ def upward_tree(tmp_path) -> Path:
     write(tmp_path, "pipeline/helpers.py", "import os\n")
     write(tmp_path, "ynet/model.py", "import pipeline.config\n")
     write(tmp_path, "ynet/loss.py", "from ynet.model import Net\n")
+    write(tmp_path, "pipeline/harness/runs.py", "from bench.speed import time_it\n")
+    write(tmp_path, "tools/plan.py", "import pipeline.report.page\n")
+    write(tmp_path, "bench/speed.py", "from pipeline.runners.train import _step, fit\n"
+                                      "from tools.plan import run\n")
     return tmp_path
 
 
 def test_the_floor_checks_catch_upward_imports_strays_and_cycles(upward_tree):
     modules = graph(upward_tree)
     assert floor_breaches(modules) == [
+        "bench.speed imports tools.plan",  # a benchmark imports a tool
         "pipeline.config imports pipeline.data.windows",  # config imports data
         "pipeline.data.windows imports pipeline.runners.train",  # in a function
+        "pipeline.harness.runs imports bench.speed",  # the library imports a benchmark
         "pipeline.models imports pipeline.harness.metrics",
         "pipeline.report.page imports pipeline.runners.train",  # report may not import runners
         "pipeline.runners.train imports pipeline.report.page",  # nor runners report
@@ -289,3 +324,4 @@ def test_the_floor_checks_catch_upward_imports_strays_and_cycles(upward_tree):
     assert not_on_one_floor(modules) == ["pipeline.helpers is on 0 floors"]
     assert on_cycles(modules) == ["pipeline.data.tracks", "pipeline.data.windows",
                                   "pipeline.report.page", "pipeline.runners.train"]
+    assert private_imports(modules) == ["bench.speed imports pipeline.runners.train._step"]

@@ -36,7 +36,7 @@ def paper_params() -> dict:
 
 
 def test_the_paper_settings_are_the_authors():
-    """What this smoke test exercises is the authors' configuration (../shared/reference)."""
+    """What this smoke test exercises is the authors' configuration (docs/profiles.md, `paper`)."""
     ynet, evaluation = paper_params()["ynet"]["paper"], paper_params()["eval"]["paper"]
     assert (ynet["resize"], ynet["kernel_size"], ynet["sigma"]) == (0.25, 31, 4.0)
     assert (ynet["distance_gain"], ynet["head_bias"], ynet["batch_size"]) == (1.0, None, 8)

@@ -20,10 +20,8 @@ import dvc  # noqa: F401  (now, not first inside a capsys test: dvc's log handle
 import pytest  # sys.stdout of dvc's import, and a test's capsys stream is closed after it)
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-
-import parallel_repro  # noqa: E402
-from parallel_repro import ALONE, SHARED  # noqa: E402
+from tools import parallel_repro
+from tools.parallel_repro import ALONE, SHARED
 
 PYTHON = sys.executable
 DVC = [PYTHON, "-m", "dvc"]  # the dvc of the venv running the tests, whatever PATH says

@@ -29,7 +29,7 @@ stages:
 
 def run_study(root: Path, *args: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(REPO)}
-    return subprocess.run([sys.executable, str(REPO / "tools/run_study.py"), *args], cwd=root,
+    return subprocess.run([sys.executable, "-m", "tools.run_study", *args], cwd=root,
                           env=env, capture_output=True, text=True)
 
 

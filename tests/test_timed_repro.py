@@ -1,16 +1,13 @@
 """tools/timed_repro.py (the stage clock of `make repro`) and the report's "Where the time goes"."""
 
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-
-import timed_repro  # noqa: E402
-from pipeline.report.lookups import Absent  # noqa: E402
-from pipeline.report.run_provenance import stage_profile  # noqa: E402
+from pipeline.report.lookups import Absent
+from pipeline.report.run_provenance import stage_profile
+from tools import timed_repro
 
 DVC_OUTPUT = [  # (seconds, line) as `dvc repro` prints them
     (0.0, "Stage 'fetch' didn't change, skipping\n"),

@@ -63,7 +63,7 @@ dvc.lock holds exactly the stages that finished. SIGINT / SIGTERM to the driver 
 every running command's process group on every worker (`stage_worker.stop_commands`); the run
 ends with 128 + the signal's number.
 
-    python tools/parallel_repro.py [--jobs N] [--dashboard HOST:PORT]
+    python -m tools.parallel_repro [--jobs N] [--dashboard HOST:PORT]
                                    [--address tls://host:port [--insecure]] [-f] [-s] [targets...]
 """
 
@@ -87,7 +87,7 @@ import uuid
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-import stage_worker
+from tools import stage_worker
 
 ALONE, SHARED = "alone", "shared"  # how a stage's command may run: by itself or beside others
 PROGRESS_EVERY_S = 30.0  # how often a concurrent stage's progress bar (lines ended by \r) is echoed

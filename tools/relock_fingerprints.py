@@ -3,11 +3,11 @@ have: a refactor, a docstring, a moved function. Only for that, and only with th
 stage re-run outside DVC gives byte-identical outputs, or a test shows it); otherwise `dvc repro`.
 
     dvc repro code_fingerprints            # first: the fingerprints of the code as it is now
-    python tools/relock_fingerprints.py    # then: list what it would re-record, change nothing
-    python tools/relock_fingerprints.py --write
-    python tools/relock_fingerprints.py --write segmentation train_ynet_horizon   # only these
-    python tools/relock_fingerprints.py --write --absent-ok   # a checkout without the outputs
-    python tools/relock_fingerprints.py --write --params horizon_analysis  # params too (below)
+    python -m tools.relock_fingerprints    # then: list what it would re-record, change nothing
+    python -m tools.relock_fingerprints --write
+    python -m tools.relock_fingerprints --write segmentation train_ynet_horizon   # only these
+    python -m tools.relock_fingerprints --write --absent-ok   # a checkout without the outputs
+    python -m tools.relock_fingerprints --write --params horizon_analysis  # params too (below)
 
 It refuses when any stale stage it is to re-record has another change than a modified fingerprint
 dep (data, params, outputs, a fingerprint not yet written), naming those stages: they must run.
@@ -30,9 +30,7 @@ import sys
 from collections.abc import Iterable
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from tools.timed_repro import current_stages  # noqa: E402  (dvc.yaml's stage names, via DVC's API)
+from tools.timed_repro import current_stages  # dvc.yaml's stage names, via DVC's API
 
 FINGERPRINTS = "data/code_fingerprints/"
 ABSENT = ("deleted", "not in cache")  # `dvc status` of a file that is not in this checkout

@@ -12,8 +12,8 @@ DVC resolves them, `${profile}` included) and writes nothing:
 - downstream: every stage that depends on those through outputs. DVC runs each unless what it
   reads comes out byte-identical (for example the untrained horizon slots of `ynet_slot_scoring`).
 
-    python tools/rerun_plan.py -S ttst.temperature=1.8
-    python tools/rerun_plan.py -S short_term_models.cpu.epochs.sgan.sdd=21 -S profile=paper
+    python -m tools.rerun_plan -S ttst.temperature=1.8
+    python -m tools.rerun_plan -S short_term_models.cpu.epochs.sgan.sdd=21 -S profile=paper
 """
 
 from __future__ import annotations
@@ -24,8 +24,6 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 import yaml
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 MISSING = object()
 

@@ -7,9 +7,9 @@ freeze is lifted in memory for the stages named, each is run when its record or 
 its scratch folder), its lock entry is written, and the stage stays frozen in dvc.yaml. Stages run
 one after the other, in the order given (a target may be a file, a stage or a glob of stages).
 
-    python tools/run_study.py studies/dvc.yaml
-    python tools/run_study.py 'studies/dvc.yaml:short_term_seed@sdd-*' --dry
-    python tools/run_study.py studies/dvc.yaml --relock-code   # after a refactor: see below
+    python -m tools.run_study studies/dvc.yaml
+    python -m tools.run_study 'studies/dvc.yaml:short_term_seed@sdd-*' --dry
+    python -m tools.run_study studies/dvc.yaml --relock-code   # after a refactor: see below
 
 `--relock-code` runs nothing: for the stages whose only change is their code fingerprint it
 re-records the fingerprint in the study's lock file, as tools/relock_fingerprints.py does for
@@ -47,7 +47,7 @@ def relock_code(stages: list, root: Path) -> int:
     """Re-record the code fingerprints of `stages` (frozen, lifted in memory) whose one change is
     that fingerprint; refuse, naming them, where any has another change."""
     from dvc.utils.serialize import modify_yaml
-    from relock_fingerprints import FINGERPRINTS, fingerprint_only  # this folder's: run as a script
+    from tools.relock_fingerprints import FINGERPRINTS, fingerprint_only
 
     stale, must_run = [], []
     for stage in stages:

@@ -20,7 +20,7 @@ this machine, listening on loopback only (`--dashboard HOST:PORT` opens its dash
 a warning), or with `--address tls://host:port` (which implies the parallel run) a running one: a
 plain tcp:// address on another machine is refused before anything runs, unless `--insecure`.
 
-    python tools/timed_repro.py [--jobs N] [--dashboard HOST:PORT]
+    python -m tools.timed_repro [--jobs N] [--dashboard HOST:PORT]
                                 [--address tls://host:port [--insecure]] [dvc repro arguments...]
 """
 
@@ -36,10 +36,7 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # parallel_repro, beside this file
-
-from pipeline.io import write_json  # noqa: E402  (atomic: temp file, then rename)
+from pipeline.io import write_json  # atomic: temp file, then rename
 
 STAGE_TIMES = Path("reports/stage_times.json")
 RUNNING = re.compile(r"^Running stage '(?P<stage>[^']+)':")
@@ -136,7 +133,7 @@ def run_parallel(args: list[str], jobs: int, on_stage_done: Callable[[str, float
                  address: str | None = None, insecure: bool = False,
                  dashboard: str | None = None) -> tuple[int, dict[str, float]]:
     """tools/parallel_repro.py's run of `args`: stage names, -f / --force, -s / --single-item."""
-    import parallel_repro
+    from tools import parallel_repro
 
     flags = {arg for arg in args if arg.startswith("-")}
     known = {"-f", "--force", "-s", "--single-item"}
@@ -158,7 +155,7 @@ def refuse_address(address: str | None, insecure: bool) -> None:
     TCP to another machine without --insecure, TLS without certificates)."""
     if address is None:
         return
-    import parallel_repro
+    from tools import parallel_repro
 
     try:
         parallel_repro.check_address(address, insecure)

@@ -2,10 +2,10 @@
 into `pipeline/config/<section>.py` changed no setting
 (docs/experiments/2026-11-28-config-by-section.md). Not a test: prints what it finds.
 
-    python docs/experiments/config_sections.py closures        # stages whose code holds each module
-    python docs/experiments/config_sections.py edits SCRATCH   # a docstring edit per module, then
+    python -m docs.experiments.config_sections closures        # stages whose code holds each module
+    python -m docs.experiments.config_sections edits SCRATCH   # a docstring edit per module, then
                                                                # stage code_fingerprints, on a copy
-    python docs/experiments/config_sections.py identity [--rev bf8c423]  # old module vs new ones
+    python -m docs.experiments.config_sections identity [--rev bf8c423]  # old module vs new ones
 
 `edits` copies `pipeline/` and `ynet/` into SCRATCH, runs stage `code_fingerprints` there once as
 it is and once after each edit (one line of one module's docstring), and lists the stages whose
@@ -30,10 +30,9 @@ import sys
 import types
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))
+from pipeline.code_graph import code_closure, entry_points
 
-from pipeline.code_graph import code_closure, entry_points  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 CONFIG = ROOT / "pipeline" / "config"
 # What the split renamed (short_term_models imports them under their old names)

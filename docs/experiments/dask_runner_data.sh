@@ -13,7 +13,7 @@ for side in new old; do
   git checkout -q HEAD -- tools/ dvc.lock
   [ $side = old ] && git checkout -q 44fff97 -- tools/parallel_repro.py tools/timed_repro.py && rm -f tools/stage_worker.py
   start=$(date +%s.%N)
-  python tools/timed_repro.py --jobs 2 -f -s $STAGES > "$LOGS/data-$side-$round.log" 2>&1
+  python -m tools.timed_repro --jobs 2 -f -s $STAGES > "$LOGS/data-$side-$round.log" 2>&1
   rc=$?
   end=$(date +%s.%N)
   same=$(python3 -c "

@@ -2,14 +2,12 @@
 `tools/parallel_repro.py`'s QUIET_LOCAL_CLUSTER, for the cluster `make repro` starts without GPUs
 (one worker, in the driver's process). CPU seconds of this process while the cluster idles.
 
-    python docs/experiments/dask_runner_idle.py [--seconds 30]
+    python -m docs.experiments.dask_runner_idle [--seconds 30]
 """
 
 import argparse
 import resource
-import sys
 import time
-from pathlib import Path
 
 
 def idle_cpu_seconds(config: dict, seconds: float) -> float:
@@ -34,8 +32,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=30.0)
     args = parser.parse_args()
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-    from parallel_repro import QUIET_LOCAL_CLUSTER
+    from tools.parallel_repro import QUIET_LOCAL_CLUSTER
 
     for name, config in (("dask defaults", {}), ("QUIET_LOCAL_CLUSTER", QUIET_LOCAL_CLUSTER)):
         used = idle_cpu_seconds(config, args.seconds)

@@ -3,14 +3,13 @@
 replaced (new hashes and sizes) in one `modify_yaml` each, as DVC records a finished stage; CPU
 seconds of each sequence, and whether the two files end byte-identical.
 
-    python docs/experiments/dask_runner_lock_updates.py [--lock dvc.lock] [--updates 12]
+    python -m docs.experiments.dask_runner_lock_updates [--lock dvc.lock] [--updates 12]
 """
 
 import argparse
 import contextlib
 import copy
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -19,7 +18,7 @@ from pathlib import Path
 def update_sequence(lock: Path, updates: int, remembered: bool) -> float:
     """CPU seconds of `updates` stage-entry updates of `lock` (changed in place)."""
     from dvc.utils.serialize import modify_yaml, parse_yaml
-    from parallel_repro import lock_parsed_once
+    from tools.parallel_repro import lock_parsed_once
 
     original = parse_yaml(lock.read_text(), str(lock))["stages"]
     started = time.process_time()
@@ -38,7 +37,6 @@ def main() -> None:
     parser.add_argument("--lock", type=Path, default=Path("dvc.lock"))
     parser.add_argument("--updates", type=int, default=12)
     args = parser.parse_args()
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
     with tempfile.TemporaryDirectory() as scratch:
         copies = {}
         for remembered in (False, True):

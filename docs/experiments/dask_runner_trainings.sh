@@ -17,7 +17,7 @@ for round in $(seq "$ROUNDS"); do
     while pgrep -f "pipeline.stages|timed_repro" > /dev/null; do sleep 1; done  # nothing beside
     rm -rf checkpoints/sgan_tf40 checkpoints/sgan_tf50 checkpoints/pecnet_tf40 checkpoints/pecnet_tf50
     start=$(date +%s.%N)
-    python tools/timed_repro.py --jobs 2 -f -s $STAGES > "$LOGS"/$side-$round.log 2>&1 &
+    python -m tools.timed_repro --jobs 2 -f -s $STAGES > "$LOGS"/$side-$round.log 2>&1 &
     driver=$! stat=""
     while kill -0 $driver 2> /dev/null; do stat=$(cat /proc/$driver/stat 2> /dev/null || echo "$stat"); sleep 0.5; done
     wait $driver

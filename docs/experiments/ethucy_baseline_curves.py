@@ -2,7 +2,7 @@
 `short_term_baselines` overrides, for choosing the `cpu` epochs (validation windows only; the test
 split is never read).
 
-    python docs/experiments/ethucy_baseline_curves.py --model pecnet --epochs 30 \
+    python -m docs.experiments.ethucy_baseline_curves --model pecnet --epochs 30 \
         --folds eth hotel univ zara1 zara2 --out /tmp/curves --threads 1
 
 Trains each fold into `<out>/<fold>_<model>` (resumable: rerun with more epochs to extend) and

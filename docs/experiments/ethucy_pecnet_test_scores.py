@@ -2,9 +2,9 @@
 protocol (per-window independent min-of-K ADE / FDE) and PECNet's own (ADE of the sample with the
 best endpoint, min FDE), in metres.
 
-    python docs/experiments/ethucy_pecnet_test_scores.py --checkpoints /tmp/ethucy_pecnet \
+    python -m docs.experiments.ethucy_pecnet_test_scores --checkpoints /tmp/ethucy_pecnet \
         --out /tmp/ethucy_pecnet/test_scores.json
-    python docs/experiments/ethucy_pecnet_test_scores.py --stored data/predictions/short_term \
+    python -m docs.experiments.ethucy_pecnet_test_scores --stored data/predictions/short_term \
         --out /tmp/ethucy_pecnet/stored_scores.json
 
 `--checkpoints ROOT` scores `ROOT/<fold>_pecnet` as the stage `evaluate_short_term_baseline`

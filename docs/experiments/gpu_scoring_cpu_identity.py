@@ -12,9 +12,9 @@ a seeded untrained model) on two synthetic scenes (`bench.bench_profiles.synthet
 and writes every array (paths, goals, weights of each sampling; losses and weights after
 training) to one npz. `--compare OLD NEW` says, array by array, whether the bytes are equal.
 
-    PYTHONPATH=<old checkout> python docs/experiments/gpu_scoring_cpu_identity.py --out old.npz
-    PYTHONPATH=<new checkout> python docs/experiments/gpu_scoring_cpu_identity.py --out new.npz
-    python docs/experiments/gpu_scoring_cpu_identity.py --compare old.npz new.npz
+    PYTHONPATH=<old checkout> python -m docs.experiments.gpu_scoring_cpu_identity --out old.npz
+    PYTHONPATH=<new checkout> python -m docs.experiments.gpu_scoring_cpu_identity --out new.npz
+    python -m docs.experiments.gpu_scoring_cpu_identity --compare old.npz new.npz
 """
 from __future__ import annotations
 

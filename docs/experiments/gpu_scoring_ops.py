@@ -7,7 +7,7 @@ with the `paper` profile's scoring (K_e 20, K_a 1, TTST + CWS, batch 4, chunk 8)
 `ttst_windows` where the code has it) made on the CPU, under `tests/sync_audit.py`'s counter (every
 dispatched operator, views included). Runs against whatever code `PYTHONPATH` points at:
 
-    PYTHONPATH=<checkout> python docs/experiments/gpu_scoring_ops.py [--windows 32] [--channels tiny|paper]
+    PYTHONPATH=<checkout> python -m docs.experiments.gpu_scoring_ops [--windows 32] [--channels tiny|paper]
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ records its checkpoint folder: its columns and its metadata, with one folder's n
 the other's, are compared), or, where a file records how long it took (JSON, CSV, torch
 checkpoints), identical but for those timings.
 
-    python docs/experiments/identity_compare.py OLD_DIR NEW_DIR
+    python -m docs.experiments.identity_compare OLD_DIR NEW_DIR
 """
 import json
 import sys

@@ -2,7 +2,7 @@
 for choosing `sgan.cpu.epochs` / `pecnet.cpu.epochs` (validation windows only; the test split is
 never read).
 
-    python docs/experiments/long_term_baseline_curves.py --model pecnet --horizons 5 30 60 \
+    python -m docs.experiments.long_term_baseline_curves --model pecnet --horizons 5 30 60 \
         --epochs 80 --out /tmp/lt_curves
 
 Each run is the stage's own (`train_baseline@<model>-<t_f>`: `<model>.<profile>` with only `epochs`
@@ -22,7 +22,7 @@ copied checkpoint have only their ADE (their weights are gone), except the kept 
 Resumable: rerun with more epochs to extend. Writes `<out>/<model>_tf<t_f>[_seed<S>].json` after
 every epoch and prints a summary per run.
 
-    python docs/experiments/long_term_baseline_curves.py --out /tmp/lt_curves --summary 40 60 80
+    python -m docs.experiments.long_term_baseline_curves --out /tmp/lt_curves --summary 40 60 80
 
 compares epoch budgets over every run in `<out>` (`<out>/summary.json`): each budget's best epoch and
 val ADE, and, since the lowest of more noisy epochs is lower by luck alone (15-23 validation windows

@@ -13,7 +13,7 @@ bf16 is acceptable when its change of ADE is small beside the round-to-round cha
 Written up in docs/profiles.md (row "Y-net long-term scoring"). FDE comes from
 the goals, which bf16 never touches, so it must be identical.
 
-    python docs/experiments/long_term_bf16_scoring.py [--threads 2] \
+    python -m docs.experiments.long_term_bf16_scoring [--threads 2] \
         [--windows data/windows/release_tf30.parquet]
 """
 
@@ -21,20 +21,16 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
-
-import long_term_validation  # noqa: E402  (beside this script)
-from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.device import cpu_has_bf16  # noqa: E402
-from pipeline.harness.metrics import window_errors  # noqa: E402
-from pipeline.runners.ynet_scoring import predict_scenes, sampling_options  # noqa: E402
+from bench.bench_ynet import keep_freed_memory
+from docs.experiments import long_term_validation
+from pipeline.device import cpu_has_bf16
+from pipeline.harness.metrics import window_errors
+from pipeline.runners.ynet_scoring import predict_scenes, sampling_options
 
 
 def main() -> None:

@@ -3,10 +3,10 @@ test-time truncation sigma, or the likelihood width it is trained with) explain 
 above the Y-net authors' retrain? Validation windows only: the test split is never read.
 
     # the test-time sigma of a trained folder (nothing trains)
-    python docs/experiments/long_term_pecnet_screen.py sigma --folder checkpoints/pecnet_tf30 \
+    python -m docs.experiments.long_term_pecnet_screen sigma --folder checkpoints/pecnet_tf30 \
         --horizon 30 --sigmas 0.8 1.0 1.3 1.6 2.0 2.5 --rounds 5 --out /tmp/lt_pecnet/sigma.json
     # the stage's run (`train_baseline@pecnet-<t_f>`) with another likelihood width, from scratch
-    python docs/experiments/long_term_pecnet_screen.py train --horizon 30 --kl-weight 0.00025 \
+    python -m docs.experiments.long_term_pecnet_screen train --horizon 30 --kl-weight 0.00025 \
         --out /tmp/lt_pecnet/kl0.00025
 
 `sigma` scores the kept weights (`best.pt`, rule `raw`, as the scoring stage loads them) on the

@@ -11,27 +11,23 @@ computes them, averaged over `--rounds` sampling seeds, with the spread between 
 setting's gain means something only where it is larger than that.
 Written up in docs/experiments/cpu-profile-against-the-paper.md.
 
-    python docs/experiments/long_term_ttst.py --temperatures 1 1.4 1.8 2.4 --thresholds 0.002 \
+    python -m docs.experiments.long_term_ttst --temperatures 1 1.4 1.8 2.4 --thresholds 0.002 \
         --rounds 3
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
-
-import long_term_validation  # noqa: E402  (beside this script)
-from bench.bench_ynet import keep_freed_memory  # noqa: E402
-from pipeline.config.ttst import TtstParams  # noqa: E402
-from pipeline.harness.metrics import window_errors  # noqa: E402
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options  # noqa: E402
-from short_term_ttst import ttst_grid  # noqa: E402  (beside this script)
+from bench.bench_ynet import keep_freed_memory
+from docs.experiments import long_term_validation
+from docs.experiments.short_term_ttst import ttst_grid
+from pipeline.config.ttst import TtstParams
+from pipeline.harness.metrics import window_errors
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings, sampling_options
 
 
 def main() -> None:

@@ -7,26 +7,22 @@ runs on any size) and prints best-of-K ADE / FDE (original pixels), seconds per 
 share of windows whose future leaves the crop.
 Written up in docs/profiles.md (row "short-term Y-net: what the model sees").
 
-    python docs/experiments/short_term_crop.py --dataset sdd --crops 64 96 0 --windows-sample 300
+    python -m docs.experiments.short_term_crop --dataset sdd --crops 64 96 0 --windows-sample 300
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
-
-from bench import short_term_validation  # noqa: E402
-from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.runners.short_term import ynet_options  # noqa: E402
-from pipeline.runners.ynet_scoring import predict_scenes  # noqa: E402
-from pipeline.harness.metrics import window_errors  # noqa: E402
+from bench import short_term_validation
+from pipeline.benchmarks.registry import short_term
+from pipeline.runners.short_term import ynet_options
+from pipeline.runners.ynet_scoring import predict_scenes
+from pipeline.harness.metrics import window_errors
 
 
 def outside_share(past: np.ndarray, future: np.ndarray, resize: float, crop: int,

@@ -9,14 +9,13 @@ batches of 2 a few steps can push the weights hundreds of times harder than the 
 what `grad_clip_norm` cuts, and its 90th percentile is about where the `cpu` profile put the bound.
 Written up in docs/profiles.md (gradient clipping).
 
-    python docs/experiments/short_term_grad_norms.py --dataset sdd --epochs 3 -S seed=1
+    python -m docs.experiments.short_term_grad_norms --dataset sdd --epochs 3 -S seed=1
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -25,16 +24,14 @@ import numpy as np
 import torch
 from torch.optim.optimizer import register_optimizer_step_pre_hook
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-from rerun_plan import parse_override  # noqa: E402  (tools/: `-S key=value` as dvc exp run)
-
-from pipeline.benchmarks.ethucy import EthUcyFold  # noqa: E402
-from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.config.loading import load_profile, load_section, read_params  # noqa: E402
-from pipeline.config.short_term import ShortTermParams  # noqa: E402
-from pipeline.config.short_term_models import ShortTermModelsParams  # noqa: E402
-from pipeline.config.ynet import YnetSettings  # noqa: E402
-from pipeline.runners.short_term import train_ynet, ynet_maps  # noqa: E402
+from pipeline.benchmarks.ethucy import EthUcyFold
+from pipeline.benchmarks.registry import short_term
+from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.ynet import YnetSettings
+from pipeline.runners.short_term import train_ynet, ynet_maps
+from tools.rerun_plan import parse_override  # `-S key=value` as dvc exp run
 
 
 def norm_percentiles(norms: np.ndarray, block: int) -> list[dict[str, float]]:

@@ -10,25 +10,21 @@ also prints the error per future step of the best path (chosen on ADE) of each, 
 decoded path ends from the goal it was given.
 Written up in docs/profiles.md (where the K = 20 error comes from).
 
-    python docs/experiments/short_term_paths.py --dataset sdd --windows-sample 0
+    python -m docs.experiments.short_term_paths --dataset sdd --windows-sample 0
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
-
-from bench import short_term_validation  # noqa: E402
-from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.harness.metrics import step_errors, window_errors  # noqa: E402
-from pipeline.runners.short_term import ynet_options  # noqa: E402
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
+from bench import short_term_validation
+from pipeline.benchmarks.registry import short_term
+from pipeline.harness.metrics import step_errors, window_errors
+from pipeline.runners.short_term import ynet_options
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings
 
 
 def straight_paths(last_observed: np.ndarray, goals: np.ndarray, n_future: int) -> np.ndarray:

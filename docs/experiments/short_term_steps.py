@@ -9,25 +9,21 @@ and of constant velocity, plus the mean peak of the trajectory decoder's per-ste
 heatmap's softargmax drifts to the centre of the map (or crop) whatever the step.
 Written up in docs/profiles.md (where the `cpu` short-term Y-net loses accuracy).
 
-    python docs/experiments/short_term_steps.py --dataset sdd --windows-sample 300
+    python -m docs.experiments.short_term_steps --dataset sdd --windows-sample 300
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
-
-from bench import short_term_validation  # noqa: E402
-from pipeline.runners.ynet_scoring import PAD_CLASS  # noqa: E402
-from pipeline.data.ynet_data import window_inputs  # noqa: E402
-from ynet.heatmaps import distance_maps  # noqa: E402
-from ynet.sampling import softargmax  # noqa: E402
+from bench import short_term_validation
+from pipeline.runners.ynet_scoring import PAD_CLASS
+from pipeline.data.ynet_data import window_inputs
+from ynet.heatmaps import distance_maps
+from ynet.sampling import softargmax
 
 
 def constant_velocity(past: torch.Tensor, n_future: int) -> torch.Tensor:

@@ -10,7 +10,7 @@ unit (original pixels; metres for ETH/UCY) beside the profile's own setting, ave
 `--rounds` sampling seeds. A setting is worth adopting only if it wins on validation for
 more than one training seed. Written up in docs/profiles.md (the TTST settings).
 
-    python docs/experiments/short_term_ttst.py --dataset sdd --windows-sample 0 \
+    python -m docs.experiments.short_term_ttst --dataset sdd --windows-sample 0 \
         --temperatures 0.5 1 2 --thresholds 0.001 0.01 0.05
 """
 
@@ -19,20 +19,16 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: bench/
-
-from bench import short_term_validation  # noqa: E402
-from pipeline.benchmarks.ethucy import to_metres  # noqa: E402
-from pipeline.benchmarks.registry import short_term  # noqa: E402
-from pipeline.harness.metrics import window_errors  # noqa: E402
-from pipeline.runners.short_term import ynet_options  # noqa: E402
-from pipeline.runners.ynet_scoring import Sampling, predict_samplings  # noqa: E402
+from bench import short_term_validation
+from pipeline.benchmarks.ethucy import to_metres
+from pipeline.benchmarks.registry import short_term
+from pipeline.harness.metrics import window_errors
+from pipeline.runners.short_term import ynet_options
+from pipeline.runners.ynet_scoring import Sampling, predict_samplings
 
 
 def ttst_grid(temperatures: list[float], thresholds: list[float],

@@ -14,6 +14,11 @@ saves a mid-epoch checkpoint between two optimiser steps and stops (exit 143 / 1
 from it ends with the very same weights as an uninterrupted run. Runs on `runtime.device`
 (`pipeline.device`): on the CPU the numbers are those of the CPU-only code; on CUDA in bf16
 autocast and channels-last.
+
+Public beside `train`: the parts inD's fine-tuning (`pipeline.runners.ind`) reuses and
+`bench/bench_segmentation.py` times: `load_training_scenes`, `unet_config`, `epoch_batches` (an
+epoch's augmented crops, drawn as `train` draws them) and `train_step` (one optimiser step, its
+loss read at once; `train` reads the losses one step late).
 """
 
 from __future__ import annotations

@@ -8,9 +8,9 @@ Benchmarks (`--dataset`, `pipeline.benchmarks.registry.short_term`): `sdd`, the 
 pixels, the test truth in its unit) and holds its own settings keys (`settings_key`). Windows of
 n_p = 8 observed + n_f = 12 future steps at 2.5 FPS, as `short_term_windows` cut them.
 
-- Y-net, the authors' short-term configuration (`shared/reference/upstream.md`): the goal is the
-  only waypoint (step n_f - 1), TTST with temperature 1.0 and rel_threshold 0.01 (`cpu`: its
-  own threshold per benchmark, `rel_threshold.<benchmark>`), no CWS, K_a = 1.
+- Y-net, the authors' short-term configuration (params.yaml `short_term_models.paper`): the goal
+  is the only waypoint (step n_f - 1), TTST with temperature 1.0 and rel_threshold 0.01 (`cpu`:
+  its own threshold per benchmark, `rel_threshold.<benchmark>`), no CWS, K_a = 1.
   Architecture, optimiser and augmentation are `ynet.<profile>`'s; map scale, Gaussian kernel and
   sigma per benchmark are `short_term_models.<profile>`'s (`ynet_sdd`, `ynet_ethucy`). ETH/UCY maps
   have 3 channels (padding, not road, road), SDD's 6.

@@ -38,7 +38,7 @@ from pipeline.device import (AUTOCAST_DTYPE, CPU, adam_options, autocast, conv_l
 from pipeline.harness.metrics import ade_fde
 from pipeline.io import IntermediateError, copy_file, save_torch, write_csv
 from pipeline.preemption import NEVER, Preemption
-from ynet.heatmaps import distance_maps
+from ynet.heatmaps import distance_maps, padded_size
 from ynet.loss import ynet_loss
 from ynet.model import YNet, weights_for_horizon
 from ynet.sampling import softargmax
@@ -105,6 +105,21 @@ def epoch_plan(scenes: list[SceneWindows], settings: YnetSettings,
             for start in range(0, len(order), settings.batch_size):
                 plan.append([(s, turns, flip, order[start:start + settings.batch_size])])
     return [plan[i] for i in rng.permutation(len(plan))]
+
+
+def plan_input_shape(parts: list[BatchPart], scenes: list[SceneWindows], settings: YnetSettings
+                     ) -> tuple[int, int, int]:
+    """(batch, height, width) of the model input `plan_batch` builds for one plan entry, without
+    building it: the padded map of its (rotated) scene, or the crop. For the benchmarks, which
+    count a step's FLOPs and warm up on each shape."""
+    batch = sum(len(rows) for *_, rows in parts)
+    if settings.crop:
+        return batch, settings.crop, settings.crop
+    s, turns = parts[0][:2]
+    height, width = scenes[s].semantic.shape[-2:]
+    if turns % 2:
+        height, width = width, height
+    return (batch, *padded_size(height, width))
 
 
 def plan_on_device(plan: list[list[BatchPart]], device: torch.device) -> list[list[BatchPart]]:

@@ -7,8 +7,8 @@ reconstructs the endpoint from (past, z); at test time z ~ N(0, sigma^2) with si
 [past features, endpoint features, position], after `nonlocal_rounds` rounds of non-local social
 pooling (attention restricted to co-occurring agents that came within `neighbour_radius` pixels of
 each other during the observed steps). Loss: MSE(endpoint) + KL + MSE(path), weights 1 (the KL
-summed over the batch, as upstream does). Settings (`pipeline.config.pecnet.PecnetConfig`):
-`shared/reference/upstream.md`.
+summed over the batch, as upstream does). Settings: `pipeline.config.pecnet.PecnetConfig`,
+upstream's in params.yaml `pecnet.paper`.
 
 Units (upstream's normalisation): each window is shifted so its first observed point is the
 origin, then multiplied by `data_scale`; the absolute last observed position, divided by

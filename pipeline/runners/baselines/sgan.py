@@ -10,8 +10,8 @@ Training: per batch, `d_steps` discriminator updates, then one generator update 
 adversarial loss plus the variety loss (the L2 over the displacement sequence of the best of
 `best_of_k` samples, per window; S-GAN takes the best per scene sequence), both on one batch, and
 soft labels for the discriminator as S-GAN does. Settings (`pipeline.config.sgan.SganConfig`): the
-authors' released models, see `shared/reference/upstream.md`; the pre-pool MLP's hidden width
-(512) is S-GAN's fixed one.
+authors' released models (params.yaml `sgan`); the pre-pool MLP's hidden width (512) is S-GAN's
+fixed one.
 
 Units: the networks see displacements and relative positions divided by `coord_scale` pixels; no
 absolute position enters, and predictions are returned in original pixels.
