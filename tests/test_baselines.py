@@ -25,7 +25,8 @@ from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import prediction_arrays, read_predictions
 from pipeline.harness.scoring import min_ade_fde
 from pipeline.config.evaluate_baseline import EvaluateBaselineParams
-from pipeline.config.loading import PARAMS_FILE, ParamsError, from_dict, load_section, read_params
+from pipeline.config.loading import (PARAMS_FILE, ParamsError, from_dict, load_profile, load_section,
+                                     read_params)
 from pipeline.config.pecnet import PecnetConfig
 from pipeline.config.sgan import SganConfig
 from pipeline.config.train_baseline import TrainBaselineParams
@@ -339,17 +340,22 @@ def test_stages_train_and_evaluate(tmp_path, monkeypatch):
     assert rows[1]["ade"] != rows[0]["ade"] and all(row["rounds"] == 2 for row in rows)
 
 
+def model_config(model: str, params: dict):
+    """`model`'s settings for the active profile, as its stages load them."""
+    return load_profile(baselines.config_class(model), model, params)
+
+
 def test_params_sections_are_strict():
     models = {"sgan": {"cpu": {"epochs": 1}, "paper": {"epochs": 2}},
               "pecnet": {"cpu": {"epochs": 1}, "paper": {"epochs": 650}}}
     params = {"profile": "paper", "train_baseline": {"seed": 0, "threads": 1}, **models}
-    assert baseline_runs.model_config("pecnet", params) == PecnetConfig(epochs=650)
-    assert baseline_runs.model_config("sgan", {**params, "profile": "cpu"}) == SganConfig(epochs=1)
+    assert model_config("pecnet", params) == PecnetConfig(epochs=650)
+    assert model_config("sgan", {**params, "profile": "cpu"}) == SganConfig(epochs=1)
     for model, bad in [("sgan", {**params, "profile": "gpu"}),  # no such profile
                        ("sgan", {**params, "sgan": {"paper": {"epoch": 1}}}),  # unknown key
                        ("pecnet", {**params, "pecnet": {"paper": {"sigma": -1.0}}})]:  # check fails
         with pytest.raises(ParamsError):
-            baseline_runs.model_config(model, bad)
+            model_config(model, bad)
     with pytest.raises(ParamsError):
         from_dict(TrainBaselineParams, {"seed": 0, "threads": 1, "profile": "cpu"}, "t")
 
@@ -363,4 +369,4 @@ def test_params_yaml_sections_parse_when_present():
     load_section(EvaluateBaselineParams, "evaluate_baseline", params)
     for profile in ("cpu", "paper"):
         for model in baselines.TRAINABLE:
-            baseline_runs.model_config(model, {**params, "profile": profile})
+            model_config(model, {**params, "profile": profile})

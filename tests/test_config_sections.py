@@ -57,30 +57,16 @@ FROM_ELSEWHERE: dict[str, dict[str, str]] = {
        for section in ("ttst", "cws", "eval")},
 }
 
-BASELINE_RUNS = "runners.baseline_runs: training and scoring of the long-term baselines in one module"
-MODEL_RUNS = "harness.model_runs: fitting and predicting a registered model in one module"
 REGISTRY = "runners.baselines: its registry imports every baseline, so both settings classes"
 SHORT_TERM = "runners.short_term: Y-net's and the baselines' short-term runs in one module"
 SHORT_TERM_MODELS = "config.short_term_models: its eval_params builds the eval section's class"
 IND = "runners.ind: inD's segmentation, Y-net and baselines, training and scoring, in one module"
-SLOTS = "runners.slot_scoring: resolving the slots from params.yaml beside reading a slot's file"
 DEVICE = "device: parses runtime.device names with the section's own check (parse_device_name)"
-PECNET_TEST_SELECTION = "studies.pecnet_test_selection: the long-term diagnostic's loading"
 AUGMENT = "data.augment (through runners.segmentation): its NO_AUGMENT default"
 NOT_READ: dict[str, dict[str, str]] = {
     "runtime": dict.fromkeys(["epoch_selection", "horizon_analysis", "score_predictions",
                               "score_short_term_predictions", "short_term_tables",
                               "short_term_windows"], DEVICE),
-    "windows": {"evaluate_ind": IND, "train_ind": IND, "train_short_term_baseline": BASELINE_RUNS,
-                "short_term_pecnet_test_selection": PECNET_TEST_SELECTION},
-    "train_baseline": {**dict.fromkeys(["evaluate_baseline", "evaluate_baseline_seed",
-                                        "evaluate_pecnet_ka", "evaluate_rpecnet",
-                                        "evaluate_rpecnet_seed"], BASELINE_RUNS),
-                       "predict_model": MODEL_RUNS},
-    "evaluate_baseline": {**dict.fromkeys(["train_baseline", "train_baseline_seed",
-                                           "train_short_term_baseline"], BASELINE_RUNS),
-                          "fit_model": MODEL_RUNS, "train_ind": IND,
-                          "short_term_pecnet_test_selection": PECNET_TEST_SELECTION},
     "sgan": {**dict.fromkeys(["epoch_selection", "evaluate_pecnet_ka", "evaluate_rpecnet",
                               "evaluate_rpecnet_seed", "rpecnet_rollouts", "pecnet_test_selection",
                               "short_term_pecnet_test_selection"], REGISTRY),
@@ -89,20 +75,15 @@ NOT_READ: dict[str, dict[str, str]] = {
                **dict.fromkeys(["evaluate_short_term_ynet", "train_short_term_ynet"], SHORT_TERM)},
     "ynet": {**dict.fromkeys(["evaluate_short_term_baseline", "train_short_term_baseline",
                               "short_term_pecnet_test_selection"], SHORT_TERM)},
-    **{section: {**dict.fromkeys(["evaluate_short_term_baseline", "train_short_term_baseline",
-                                  "train_short_term_ynet", "short_term_pecnet_test_selection"],
-                                 SHORT_TERM_MODELS if section == "eval" else SHORT_TERM),
-                 "train_ind": IND}
+    **{section: dict.fromkeys(["evaluate_short_term_baseline", "train_short_term_baseline",
+                               "train_short_term_ynet", "short_term_pecnet_test_selection"],
+                              SHORT_TERM_MODELS if section == "eval" else SHORT_TERM)
        for section in ("ttst", "cws", "eval")},
-    "ynet_horizons": dict.fromkeys(["evaluate_ynet_horizon", "evaluate_ynet_seed"], SLOTS),
-    "ynet_seeds": dict.fromkeys(["evaluate_ynet_horizon", "evaluate_ynet_seed"], SLOTS),
     "segmentation": {"evaluate_ind": IND, "semantic_maps": AUGMENT},
-    "ind_benchmark": {"evaluate_ind": IND},
-    "pecnet_test_selection": {"short_term_pecnet_test_selection": PECNET_TEST_SELECTION},
 }
 UNCHECKED: dict[str, dict[str, str]] = {
-    "windows": {"ynet_slot_scoring": "slot_scoring.slot_payloads reads windows.horizons and "
-                                     "windows.release_horizon from the params mapping"},
+    "windows": {"ynet_slot_scoring": "the stage reads windows.horizons and windows.release_horizon "
+                                     "from the params mapping (slot_settings)"},
 }
 
 

@@ -10,6 +10,8 @@ as entry points on top.
     that floor may import, all of them lower (ARCHITECTURE.md's "The packages" shows the same table);
 (f) no import cycle: within a floor too, two modules never need each other;
 (g) tools/ and bench/ import no private name (`_name`) of the library: they call its public API.
+(h) only `pipeline/stages` and `pipeline/config` read params.yaml (call `read_params`,
+    `load_section` or `load_profile`): a stage reads it once and hands the settings down.
 Each check runs on the real tree and, to show it can fail, on a deliberately bad one.
 """
 
@@ -29,6 +31,8 @@ STAGES = "pipeline.stages"
 # `pipeline.code_graph.PACKAGES`, whose files make the stages' code fingerprints.
 ENTRY_PACKAGES = ("tools", "bench")
 CHECKED = (*PACKAGES, *ENTRY_PACKAGES)
+PARAMS_READERS = ("read_params", "load_section", "load_profile")  # of pipeline.config.loading
+READ_PARAMS_IN = (STAGES, "pipeline.config")  # the stages, and the loading itself
 
 # The floors, lowest first: (floor, its modules, the floors it may import besides its own). A name
 # ending in ".*" stands for everything inside that package; `pipeline` is the package's own
@@ -188,6 +192,27 @@ def misnamed_commands(dvc_yaml: Path) -> list[str]:
                   if f"-m {STAGES}.{name} " not in " ".join(str(s.get("do", s)["cmd"]).split()) + " ")
 
 
+def reads_params_here(module: str) -> bool:
+    return any(module == package or module.startswith(package + ".") for package in READ_PARAMS_IN)
+
+
+def params_reads(path: Path) -> list[int]:
+    """The lines of `path` that call a params reader, by name or as an attribute
+    (`loading.load_section(...)`)."""
+    return sorted(node.lineno for node in ast.walk(ast.parse(path.read_text()))
+                  if isinstance(node, ast.Call)
+                  and getattr(node.func, "id", getattr(node.func, "attr", None)) in PARAMS_READERS)
+
+
+def libraries_reading_params(root: Path) -> list[str]:
+    """`<file>:<line>` of every params read outside the stages and `pipeline/config`."""
+    return [f"{path.relative_to(root)}:{line}"
+            for package in PACKAGES if (root / package).is_dir()
+            for path in sorted((root / package).rglob("*.py"))
+            if not reads_params_here(module_name(path, root))
+            for line in params_reads(path)]
+
+
 # ---------------------------------------------------------------------------------------------
 # The real tree
 
@@ -239,6 +264,10 @@ def test_tools_and_benchmarks_import_no_private_name():
     assert private_imports(modules) == []
 
 
+def test_only_stages_and_config_read_params():
+    assert libraries_reading_params(REPO) == []
+
+
 # ---------------------------------------------------------------------------------------------
 # The checks catch what they are for
 
@@ -275,6 +304,19 @@ def test_the_checks_catch_bad_imports_and_missing_mains(bad_tree):
     assert without_main(bad_tree) == ["b.py", "c.py"]  # b: no main; c: main never run
     assert unnamed_stages(bad_tree, bad_tree / "dvc.yaml") == ["c"]
     assert misnamed_commands(bad_tree / "dvc.yaml") == ["d"]  # stage d runs module a
+
+
+def test_the_params_check_catches_a_library_reading_params(tmp_path):
+    write(tmp_path, "pipeline/stages/a.py", "from pipeline.config.loading import read_params\n"
+                                            "params = read_params()\n")
+    write(tmp_path, "pipeline/config/x.py", "from pipeline.config.loading import load_profile\n"
+                                            "def f(p):\n    return load_profile(X, 'x', p)\n")
+    write(tmp_path, "pipeline/runners/r.py", "from pipeline.config.loading import load_section\n"
+                                             "def f(p):\n    return load_section(X, 'x', p)\n")
+    write(tmp_path, "pipeline/stages_like.py", "from pipeline.config import loading\n\n"
+                                               "def f():\n    return loading.read_params()\n")
+    assert libraries_reading_params(tmp_path) == ["pipeline/runners/r.py:3",
+                                                  "pipeline/stages_like.py:4"]
 
 
 @pytest.fixture

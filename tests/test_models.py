@@ -21,9 +21,12 @@ import pytest
 import yaml
 
 from pipeline.benchmarks.ind import IND
-from pipeline.config.loading import ParamsError, read_params
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import ParamsError, load_section, read_params
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import conform, load_windows
-from pipeline.harness.model_runs import FIT_FACTS, fit_to_workdir, predict_to_files
+from pipeline.harness.model_runs import FIT_FACTS, fit_to_workdir, predict_to_files, registered
 from pipeline.harness.predictions import prediction_arrays, read_predictions, write_no_predictions
 from pipeline.io import write_parquet
 from pipeline.models import (ModelEntry, WindowSet, check_predictions, load_model, load_models,
@@ -62,6 +65,22 @@ def params_with(models: dict, **sections) -> dict:
             "train_baseline": {"seed": 3, "threads": 1},
             "evaluate_baseline": {"k": 4, "split": "test", "rounds": 2, "seed": 10, "threads": 1},
             "runtime": {"device": "cpu", "max_minutes": 0}, "models": models, **sections}
+
+
+def fit(name: str, horizon: int, table: Path, workdir: Path, params: dict) -> dict:
+    """`fit_to_workdir` under the settings stage `fit_model` reads from `params`."""
+    return fit_to_workdir(registered(name, load_models(params)), horizon, table, workdir,
+                          load_section(TrainBaselineParams, "train_baseline", params),
+                          load_section(WindowParams, "windows", params).n_past)
+
+
+def predict(name: str, horizon: int, table: Path, workdir: Path, metrics: Path, predictions: Path,
+            params: dict) -> dict:
+    """`predict_to_files` under the settings stage `predict_model` reads from `params`."""
+    evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
+    return predict_to_files(registered(name, load_models(params)), horizon, table, workdir, metrics,
+                            predictions, evaluation,
+                            load_section(WindowParams, "windows", params).n_past)
 
 
 CV_LINE = {"class": "ConstantVelocity", "label": "Constant velocity", "colour": "#7f7f7f",
@@ -155,7 +174,7 @@ def test_the_harness_shows_train_and_val_futures_never_the_test_ones(models_dir,
     write_parquet(horizon_table(7, {"train": 6, "val": 4, "test": 5}), table)
     params = params_with({"spy": {"class": "Spy", "label": "Spy", "colour": "#123456",
                                   "settings": {"shift": 2.5}}})
-    facts = fit_to_workdir("spy", 7, table, tmp_path / "wd", params)
+    facts = fit("spy", 7, table, tmp_path / "wd", params)
     state = json.loads((tmp_path / "wd" / "state.json").read_text())
     assert state == {"seed": 3, "n_train": 6, "n_val": 4, "train_future": [6, 7, 2],
                      "val_future": [4, 7, 2], "n_future": 7}
@@ -170,8 +189,8 @@ def test_the_harness_shows_train_and_val_futures_never_the_test_ones(models_dir,
         return shown[-1]
 
     monkeypatch.setattr(model_runs, "load_model", keep)
-    record = predict_to_files("spy", 7, table, tmp_path / "wd", tmp_path / "m.json",
-                              tmp_path / "p.parquet", params)
+    record = predict("spy", 7, table, tmp_path / "wd", tmp_path / "m.json",
+                     tmp_path / "p.parquet", params)
     calls = shown[0].calls
     assert [c["seed"] for c in calls] == [10, 11]  # evaluate_baseline.seed + round
     assert all(c["future"] is None and c["k"] == 4 and c["state"] == state for c in calls)
@@ -191,10 +210,10 @@ def test_constant_velocity_through_the_contract_stores_its_extrapolation(tmp_pat
     table = tmp_path / "tf7.parquet"
     write_parquet(horizon_table(7, {"train": 4, "val": 2, "test": 9}, seed=5), table)
     params = params_with({"constant_velocity": CV_LINE})
-    fit_to_workdir("constant_velocity", 7, table, tmp_path / "wd", params)
+    fit("constant_velocity", 7, table, tmp_path / "wd", params)
     assert sorted(p.name for p in (tmp_path / "wd").iterdir()) == [FIT_FACTS]  # nothing learned
-    ours = predict_to_files("constant_velocity", 7, table, tmp_path / "wd", tmp_path / "m.json",
-                            tmp_path / "p.parquet", params)
+    ours = predict("constant_velocity", 7, table, tmp_path / "wd", tmp_path / "m.json",
+                   tmp_path / "p.parquet", params)
     assert json.loads((tmp_path / "m.json").read_text()) == ours
     assert list(ours) == ["model", "horizon", "split", "seed", "ade", "fde", "ade_joint",
                           "fde_joint", "rounds", "k", "n_windows", "eval_seconds",
@@ -263,16 +282,16 @@ def test_a_failed_fit_leaves_the_previous_workdir(models_dir, tmp_path):
     params = params_with({"broken": {"class": "Broken", "label": "B", "colour": "#000000",
                                      "settings": {}}})
     with pytest.raises(RuntimeError, match="diverged"):
-        fit_to_workdir("broken", 7, table, tmp_path / "wd", params)
+        fit("broken", 7, table, tmp_path / "wd", params)
     assert sorted(p.name for p in (tmp_path / "wd").iterdir()) == ["kept"]
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".wd")] == []
     with pytest.raises(ValueError, match=r"wd/fit.json: no fit record.*fit_model@broken-7"):
-        predict_to_files("broken", 7, table, tmp_path / "wd", tmp_path / "m.json",
-                         tmp_path / "p.parquet", params)
+        predict("broken", 7, table, tmp_path / "wd", tmp_path / "m.json",
+                tmp_path / "p.parquet", params)
     with pytest.raises(ParamsError, match=r"no model 'other'; registered: \['broken'\]"):
-        fit_to_workdir("other", 7, table, tmp_path / "wd", params)
+        fit("other", 7, table, tmp_path / "wd", params)
     with pytest.raises(ValueError, match="windows of horizon\\(s\\) \\[7\\], expected 9"):
-        fit_to_workdir("broken", 9, table, tmp_path / "wd", params)
+        fit("broken", 9, table, tmp_path / "wd", params)
 
 
 def test_a_window_set_holds_the_documented_arrays():

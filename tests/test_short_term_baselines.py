@@ -17,12 +17,31 @@ import pytest
 import torch
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config.loading import read_params
+from pipeline.config.loading import active_profile, load_profile, profile_entry, read_params
 from pipeline.config.pecnet import PecnetConfig
 from pipeline.config.sgan import SganConfig
 from pipeline.data.window_table import select_split, to_arrays
-from pipeline.runners.short_term_baselines import baseline_config, overrides
+from pipeline.runners.baselines import config_class
+from pipeline.runners.short_term_baselines import SECTION, BaselineOverrides
+from pipeline.runners.short_term_baselines import baseline_config as config_from
+from pipeline.runners.short_term_baselines import overrides as overrides_of
 from tests.test_short_term_models import N_FUTURE, N_PAST, project  # noqa: F401 (fixture)
+
+
+def overrides_section(params: dict) -> BaselineOverrides:
+    """Section `short_term_baselines` as the short-term baseline stages read it from `params`."""
+    return BaselineOverrides(active_profile(params), profile_entry(params, SECTION))
+
+
+def overrides(params: dict, model: str, dataset: str) -> dict:
+    return overrides_of(overrides_section(params), model, dataset)
+
+
+def baseline_config(model: str, dataset: str, params: dict, epochs: int):
+    """`model`'s config for `dataset` as stage `train_short_term_baseline` builds it from `params`."""
+    return config_from(model, dataset, load_profile(config_class(model), model, params),
+                       overrides_section(params), epochs)
+
 
 REPO = Path(__file__).resolve().parents[1]
 

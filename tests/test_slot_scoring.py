@@ -38,6 +38,11 @@ SOME = {10: 3, 60: 10}
 """A profile that trains only some horizons (and, in cpu, no extra seed)."""
 
 
+def payloads_of(params: dict) -> dict[str, dict]:
+    """`slot_payloads` of the settings stage `ynet_slot_scoring` reads from `params`."""
+    return slot_payloads(ynet_slot_scoring.slot_settings(params))
+
+
 def scored(payloads: dict) -> list[str]:
     return sorted(slot for slot, payload in payloads.items() if payload["scored"])
 
@@ -47,26 +52,26 @@ def test_every_slot_gets_a_file_and_the_profile_decides_which_are_scored():
     slots = {horizon_slot(h) for h in horizons} | {seed_slot(s) for s in PARAMS["ynet_seeds"]["slots"]}
     for profile in ("cpu", "paper"):
         params = with_profile(profile)
-        payloads = slot_payloads(params)
+        payloads = payloads_of(params)
         assert set(payloads) == slots
         trained = ({horizon_slot(h) for h in load_profile(HorizonParams, "ynet_horizons", params).horizons}
                    | {seed_slot(s) for s in params["ynet_seeds"][profile]["seeds"]})
         assert scored(payloads) == sorted(trained)
         assert all(payload["slot"] == slot for slot, payload in payloads.items())
-    assert scored(slot_payloads(with_profile("cpu", SOME))) == ["tf10", "tf60"]
-    assert scored(slot_payloads(with_profile("paper"))) == sorted(slots)
+    assert scored(payloads_of(with_profile("cpu", SOME))) == ["tf10", "tf60"]
+    assert scored(payloads_of(with_profile("paper"))) == sorted(slots)
 
 
 @pytest.mark.parametrize("key, value", [(("ttst", "temperature"), 1.5), (("cws", "ratio"), 3.0),
                                         (("eval", "cpu", "k_e"), 10), (("eval", "cpu", "bf16"), False)])
 def test_a_sampling_change_rewrites_only_the_scored_slots(key, value):
-    before = slot_payloads(with_profile("cpu", SOME))
+    before = payloads_of(with_profile("cpu", SOME))
     params = with_profile("cpu", SOME)
     section = params
     for name in key[:-1]:
         section = section[name]
     section[key[-1]] = value
-    after = slot_payloads(params)
+    after = payloads_of(params)
     changed = sorted(slot for slot in before if before[slot] != after[slot])
     assert changed == scored(before) == ["tf10", "tf60"]
 
@@ -74,7 +79,7 @@ def test_a_sampling_change_rewrites_only_the_scored_slots(key, value):
 def test_a_change_of_what_evaluate_ynet_alone_reads_rewrites_no_slot():
     params = with_profile("cpu", SOME)
     params["eval"]["cpu"].update(ablation_rounds=3, ka_grid_k_a=[1, 2, 5], qualitative_scenes=["gates_3"])
-    assert slot_payloads(params) == slot_payloads(with_profile("cpu", SOME))
+    assert payloads_of(params) == payloads_of(with_profile("cpu", SOME))
 
 
 def test_the_stage_writes_what_the_stages_read_back(tmp_path, monkeypatch):
@@ -93,7 +98,7 @@ def test_the_stage_writes_what_the_stages_read_back(tmp_path, monkeypatch):
     seed = read_slot_scoring(Path("slots/seed1.json"), "seed1")
     assert {k: getattr(seed.eval, k) for k in EVAL_KEYS} == {k: getattr(main_eval, k) for k in EVAL_KEYS}
     assert sorted(p.name for p in Path("slots").iterdir()) == sorted(
-        f"{slot}.json" for slot in slot_payloads(params))
+        f"{slot}.json" for slot in payloads_of(params))
 
     params = with_profile("cpu", SOME)
     (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
@@ -128,7 +133,7 @@ def test_a_slot_file_that_disagrees_with_the_training_record_stops_the_stage(tmp
                                          r"scored but train.json says it was trained"):
         evaluate_ynet_horizon.main(argv)
     assert not Path("out").exists()
-    Path("tf10.json").write_text(json.dumps(slot_payloads(with_profile("cpu"))["tf10"]))
+    Path("tf10.json").write_text(json.dumps(payloads_of(with_profile("cpu"))["tf10"]))
     with pytest.raises(IntermediateError, match="tf10.json says the slot is scored but t.json says it "
                                                 "was not trained"):
         check_agrees(read_slot_scoring(Path("tf10.json"), "tf10"), False, Path("tf10.json"),
@@ -152,7 +157,7 @@ def test_dvc_yaml_gives_every_slot_stage_its_own_file_and_no_sampling_param():
                    if name.startswith(("evaluate_ynet_horizon@", "evaluate_ynet_seed@"))}
     slots = {(horizon_slot if "horizon" in name else seed_slot)(int(name.split("@")[1])): name
              for name in slot_stages}
-    assert set(slots) == set(slot_payloads(PARAMS))  # a file for every slot stage, a stage for every file
+    assert set(slots) == set(payloads_of(PARAMS))  # a file for every slot stage, a stage for every file
     for slot, name in slots.items():
         stage = slot_stages[name]
         deps = {str(dep.def_path) for dep in stage.deps}

@@ -2,7 +2,8 @@
 
 `load_section` builds a section's dataclass from the YAML and fails loudly on unknown or missing
 keys, so a typo in `params.yaml` or in `dvc exp run -S ...` is an error, not a silent default;
-`load_profile` picks a profiled section's entry for the active `profile`. Scalars are type-checked
+`load_profile` picks a profiled section's entry for the active `profile`, the one place the
+profile is resolved (`active_profile`, `profile_entry`). Scalars are type-checked
 (`scalar_type_error`) and floats read as YAML 1.2 writes them (`yaml12_floats`), as DVC reads them.
 Each section's dataclass is in its own module of `pipeline.config` (named after the section), so a
 stage's code holds only the sections it reads; `tests/test_params.py` checks every class against
@@ -15,6 +16,7 @@ import dataclasses
 import re
 import types
 import typing
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -135,6 +137,29 @@ def load_section(cls: type[T], key: str, params: dict[str, Any] | None = None) -
     return from_dict(cls, params[key], f"params.yaml:{key}")
 
 
+def active_profile(params: Mapping[str, Any]) -> str:
+    """The active profile (`cpu` / `paper`): params.yaml's `profile`, read here alone, so every
+    profiled section and every record that names the profile names the same one."""
+    profile = params.get("profile")
+    if not isinstance(profile, str):
+        raise ParamsError(f"params.yaml:profile: expected a profile name (cpu, paper), "
+                          f"got {profile!r}")
+    return profile
+
+
+def profile_entry(params: Mapping[str, Any], key: str) -> Any:
+    """Section `key`'s entry for the active profile, as written (`ynet: {cpu: {...}, paper:
+    {...}}` -> `params['ynet'][profile]`), for a caller that reads only some keys of it."""
+    profile = active_profile(params)
+    if key not in params:
+        raise ParamsError(f"params.yaml: missing section '{key}'")
+    section = params[key]
+    if not isinstance(section, dict) or profile not in section:
+        raise ParamsError(f"params.yaml:{key}: no settings for profile {profile!r}; "
+                          f"profiles here: {sorted(section) if isinstance(section, dict) else []}")
+    return section[profile]
+
+
 def load_profile(cls: type[T], key: str, params: dict[str, Any] | None = None) -> T:
     """Section `key` for the active `profile` (params.yaml `profile: cpu|paper`) as a `cls`.
 
@@ -142,13 +167,8 @@ def load_profile(cls: type[T], key: str, params: dict[str, Any] | None = None) -
     `dvc exp run -S profile=paper` switches every profiled stage at once.
     """
     params = read_params() if params is None else params
-    profile = params.get("profile")
-    if key not in params:
-        raise ParamsError(f"params.yaml: missing section '{key}'")
-    if not isinstance(params[key], dict) or profile not in params[key]:
-        raise ParamsError(f"params.yaml:{key}: no settings for profile {profile!r}; "
-                          f"profiles here: {sorted(params[key]) if isinstance(params[key], dict) else []}")
-    return from_dict(cls, params[key][profile], f"params.yaml:{key}.{profile}")
+    entry = profile_entry(params, key)
+    return from_dict(cls, entry, f"params.yaml:{key}.{active_profile(params)}")
 
 
 def seed_list_error(seeds: Any) -> str | None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from pipeline.config.loading import ParamsError
+from pipeline.config.loading import ParamsError, active_profile, profile_entry
 from ynet.config import YNetConfig, upstream_max_distance
 
 
@@ -130,9 +130,9 @@ class YnetSettings:
 def ynet_main_seed(params: dict[str, Any]) -> int:
     """`ynet.<profile>.seed` alone (the main Y-net's training seed), for a stage that declares only
     that key of the section (`YnetSettings` itself lives with the training code)."""
-    profile = params.get("profile")
-    seed = params.get("ynet", {}).get(profile, {}).get("seed")
+    entry = profile_entry(params, "ynet")
+    seed = entry.get("seed") if isinstance(entry, dict) else None
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ParamsError(f"params.yaml:ynet.{profile}.seed: expected a non-negative integer seed, "
-                          f"got {seed!r}")
+        raise ParamsError(f"params.yaml:ynet.{active_profile(params)}.seed: expected a "
+                          f"non-negative integer seed, got {seed!r}")
     return seed

@@ -15,29 +15,30 @@ from __future__ import annotations
 import json
 import sys
 import time
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config.evaluate_baseline import EvaluateBaselineParams
-from pipeline.config.loading import ParamsError, load_section
-from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.config.windows import WindowParams
+from pipeline.config.loading import ParamsError
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.harness.metrics import seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import atomic_dir, write_json
-from pipeline.models import (ModelEntry, WindowSet, check_predictions, load_model, load_models,
-                             window_set)
+from pipeline.models import ModelEntry, WindowSet, check_predictions, load_model, window_set
+
+if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it reads (code_graph)
+    from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+    from pipeline.config.train_baseline import TrainBaselineParams
 
 FIT_FACTS = "fit.json"  # written by the harness into every workdir, beside the model's own files
 
 
-def registered(name: str, params: dict) -> ModelEntry:
-    """Model `name`'s registry line, or a ParamsError listing the registered ones."""
-    models = load_models(params)
+def registered(name: str, models: Mapping[str, ModelEntry]) -> ModelEntry:
+    """Model `name`'s line of the registry `models` (`load_models`), or a ParamsError listing the
+    registered ones."""
     if name not in models:
         raise ParamsError(f"params.yaml:models: no model {name!r}; registered: {sorted(models)}")
     return models[name]
@@ -51,13 +52,13 @@ def limit_torch_threads(threads: int) -> None:
         torch.set_num_threads(threads)
 
 
-def fit_to_workdir(name: str, horizon: int, table: Path, workdir: Path, params: dict) -> dict:
-    """What stage `fit_model` does: model `name` fitted on `table`'s train windows (val for
-    selection) under `train_baseline` (seed, threads) and `windows.n_past` of `params`, its files
-    and the fit's facts (returned too) written to `workdir`."""
-    entry = registered(name, params)
-    settings = load_section(TrainBaselineParams, "train_baseline", params)
-    n_past = load_section(WindowParams, "windows", params).n_past
+def fit_to_workdir(entry: ModelEntry, horizon: int, table: Path, workdir: Path,
+                   settings: TrainBaselineParams, n_past: int) -> dict:
+    """What stage `fit_model` does: the model of registry line `entry` fitted on `table`'s train
+    windows (val for selection) under `settings` (section `train_baseline`: seed, threads) and
+    `n_past` (`windows.n_past`), its files and the fit's facts (returned too) written to
+    `workdir`."""
+    name = entry.name
     arrays = load_windows(table, n_past, horizon)
     train = window_set(arrays, "train", with_future=True)
     val = window_set(arrays, "val", with_future=True)
@@ -121,15 +122,13 @@ def score_rounds(name: str, model, test: WindowSet, truth: np.ndarray, workdir: 
             "eval_seconds_per_round": seconds / rounds, "per_round": per_round}
 
 
-def predict_to_files(name: str, horizon: int, table: Path, workdir: Path, metrics: Path,
-                     predictions: Path, params: dict) -> dict:
-    """What stage `predict_model` does: model `name`, as fitted in `workdir`, scored on split
-    `evaluate_baseline.split` of `table` (K, rounds, seed, threads of `evaluate_baseline`;
-    `windows.n_past`), the metrics record written to `metrics` (and returned) and every round's
-    predictions to `predictions`."""
-    entry = registered(name, params)
-    evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
-    n_past = load_section(WindowParams, "windows", params).n_past
+def predict_to_files(entry: ModelEntry, horizon: int, table: Path, workdir: Path, metrics: Path,
+                     predictions: Path, evaluation: EvaluateBaselineParams, n_past: int) -> dict:
+    """What stage `predict_model` does: the model of registry line `entry`, as fitted in
+    `workdir`, scored on split `evaluation.split` of `table` (K, rounds, seed, threads of section
+    `evaluate_baseline`; `n_past`: `windows.n_past`), the metrics record written to `metrics` (and
+    returned) and every round's predictions to `predictions`."""
+    name = entry.name
     facts = fit_facts(workdir, name, horizon)
     arrays = load_windows(table, n_past, horizon)
     test, truth = split_to_score(arrays, evaluation.split)

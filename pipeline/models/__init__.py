@@ -48,7 +48,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from pipeline.config.loading import ParamsError, read_params
+from pipeline.config.loading import ParamsError
 from pipeline.data.window_table import WindowArrays
 from pipeline.model_list import PAPER_MODEL_NAMES, PAPER_MODELS
 
@@ -85,9 +85,9 @@ class ModelEntry:
     settings: dict[str, Any]
 
 
-def load_models(params: dict[str, Any] | None = None) -> dict[str, ModelEntry]:
-    """Section `models` of `params.yaml` (or of `params`), in its order, each line checked."""
-    params = read_params() if params is None else params
+def load_models(params: Mapping[str, Any]) -> dict[str, ModelEntry]:
+    """Section `models` of `params` (params.yaml as its stage read it), in its order, each line
+    checked."""
     if MODELS_SECTION not in params:
         raise ParamsError(f"params.yaml: missing section '{MODELS_SECTION}' (README \"Your model "
                           "here\"; `models: {}` registers none)")

@@ -14,7 +14,8 @@ every test prediction (`pipeline.harness.predictions`), or only the metrics for 
 seeds (`evaluate_baseline_seed`, `evaluate_rpecnet_seed`). Checkpoints:
 `pipeline.runners.baselines.common`.
 Each model's settings are its config dataclass (`pipeline.config.sgan` / `.pecnet`: sections `sgan`
-/ `pecnet`, one per profile), chosen by `model_config`.
+/ `pecnet`, one per profile), of the class `baselines.config_class` names; the stages read the
+params and hand the sections down.
 """
 
 from __future__ import annotations
@@ -22,18 +23,14 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
 
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
-from pipeline.config.evaluate_baseline import EvaluateBaselineParams
-from pipeline.config.loading import load_profile, load_section
-from pipeline.config.runtime import RuntimeParams
-from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, SCORING, TRAINING, describe, select_device
 from pipeline.runners import baselines
@@ -43,6 +40,11 @@ from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import write_json
 from pipeline.models import WindowSet, window_set
 from pipeline.preemption import NEVER, Preemption
+
+if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it reads (code_graph)
+    from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+    from pipeline.config.runtime import RuntimeParams
+    from pipeline.config.train_baseline import TrainBaselineParams
 
 
 def run_arguments(description: str, checkpoint_help: str) -> argparse.ArgumentParser:
@@ -55,13 +57,6 @@ def run_arguments(description: str, checkpoint_help: str) -> argparse.ArgumentPa
     parser.add_argument("--checkpoint-dir", type=Path, required=True, help=checkpoint_help)
     parser.add_argument("--metrics", type=Path, required=True, help="JSON written")
     return parser
-
-
-def model_config(model: str, params: dict):
-    """The settings of `model` (sections `sgan` / `pecnet`) for the active `profile`."""
-    if model not in baselines.TRAINABLE:
-        raise ValueError(f"{model!r} is not trained; trainable: {baselines.TRAINABLE}")
-    return load_profile(baselines.get(model).config_class, model, params)
 
 
 def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: int,
@@ -82,18 +77,27 @@ def train(model: str, arrays: WindowArrays, config, checkpoint_dir: Path, seed: 
     }
 
 
-def train_record(model: str, horizon: int, table: Path, checkpoint_dir: Path, params: dict,
-                 seed: int | None = None) -> dict:
+@dataclass(frozen=True)
+class BaselineTraining:
+    """What training one baseline is configured by (stages `train_baseline`,
+    `train_baseline_seed`), as the stage read it from params.yaml."""
+
+    profile: str
+    config: Any  # the model's config dataclass: `<model>.<profile>`
+    train_baseline: TrainBaselineParams  # seed and threads
+    n_past: int  # windows.n_past
+    runtime: RuntimeParams
+
+
+def train_record(model: str, horizon: int, table: Path, checkpoint_dir: Path,
+                 training: BaselineTraining, seed: int | None = None) -> dict:
     """What the stages `train_baseline` (`seed` None: `train_baseline.seed`) and
-    `train_baseline_seed` (an extra training seed) do: `train` on `table` under
-    `train_baseline.threads`, `<model>.<profile>`, `windows.n_past` and `runtime` of `params`
-    (params.yaml as read). Returns the training facts with the settings they ran under (the layout
-    of `metrics/baselines/train_<model>_tf<H>.json`); raises `StopRequested` as `train` does."""
-    settings = load_section(TrainBaselineParams, "train_baseline", params)
+    `train_baseline_seed` (an extra training seed) do: `train` on `table` under `training`.
+    Returns the training facts with the settings they ran under (the layout of
+    `metrics/baselines/train_<model>_tf<H>.json`); raises `StopRequested` as `train` does."""
+    settings, config = training.train_baseline, training.config
     seed = settings.seed if seed is None else seed
-    config = model_config(model, params)
-    n_past = load_section(WindowParams, "windows", params).n_past
-    runtime = load_section(RuntimeParams, "runtime", params)
+    n_past, runtime = training.n_past, training.runtime
     torch.set_num_threads(settings.threads)
     device = select_device(runtime.device, purpose=TRAINING)
     print(f"train_baseline {model} t_f = {horizon}, seed {seed}: {describe(device)}", flush=True)
@@ -101,7 +105,7 @@ def train_record(model: str, horizon: int, table: Path, checkpoint_dir: Path, pa
     t0 = time.perf_counter()
     with Preemption(runtime.max_minutes) as preemption:
         facts = train(model, arrays, config, checkpoint_dir, seed, device, preemption)
-    return {"model": model, "horizon": horizon, "profile": params["profile"], "seed": seed,
+    return {"model": model, "horizon": horizon, "profile": training.profile, "seed": seed,
             "threads": settings.threads, "device": describe(device),
             "wall_seconds": time.perf_counter() - t0, **facts}
 
@@ -160,16 +164,15 @@ def score_split(model: str, table: Path, horizon: int, checkpoint_dir: Path, n_p
 
 
 def score_to_file(model: str, table: Path, horizon: int, checkpoint_dir: Path, metrics: Path,
-                  predictions: Path | None, params: dict, extra: Mapping[str, Any] | None = None) -> None:
+                  predictions: Path | None, evaluation: EvaluateBaselineParams, n_past: int,
+                  runtime: RuntimeParams, extra: Mapping[str, Any] | None = None) -> None:
     """What the stages `evaluate_baseline`, `evaluate_rpecnet` and their extra-seed twins do:
-    `score_split` under `evaluate_baseline` (its threads), `windows.n_past` and `runtime.device` of
-    `params` (params.yaml as read), written to `metrics` (with `extra`'s keys after the rest), and
-    every round's test predictions written to `predictions` (no weights: these models give none;
-    None: not kept, as for the extra training seeds)."""
-    evaluation = load_section(EvaluateBaselineParams, "evaluate_baseline", params)
-    n_past = load_section(WindowParams, "windows", params).n_past
+    `score_split` under `evaluation` (section `evaluate_baseline`, its threads), `n_past`
+    (`windows.n_past`) and `runtime.device`, written to `metrics` (with `extra`'s keys after the
+    rest), and every round's test predictions written to `predictions` (no weights: these models
+    give none; None: not kept, as for the extra training seeds)."""
     torch.set_num_threads(evaluation.threads)
-    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
+    device = select_device(runtime.device, purpose=SCORING)
     print(f"evaluate_baseline {model} t_f = {horizon}: {describe(device)}", flush=True)
     scores, kept = score_split(model, table, horizon, checkpoint_dir, n_past, evaluation, device)
     if predictions is not None:

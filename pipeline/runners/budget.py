@@ -30,6 +30,7 @@ from typing import Any
 
 from pipeline.benchmarks.registry import short_term
 from pipeline.checkpoints import read
+from pipeline.config.loading import active_profile
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.runners.studies import dotted, run_stage, scratch_params, short_term_commands
 
@@ -114,7 +115,7 @@ def validation_curve(model_dir: Path) -> list[float]:
 def run_budget_point(point: BudgetPoint, scratch: Path, params: dict[str, Any]) -> dict[str, Any]:
     """Train and score `point` in `scratch` (kept: a stopped run resumes there); the scoring
     stage's record plus the factor, the epochs, their key, the validation curve and the seconds."""
-    key = epochs_key(point.kind, point.model, params["profile"], point.dataset)
+    key = epochs_key(point.kind, point.model, active_profile(params), point.dataset)
     epochs = dotted(params, key) * point.factor
     scratch = scratch_params(scratch.resolve(), params, {key: epochs})
     started = time.perf_counter()

@@ -34,23 +34,14 @@ import dataclasses
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
 import torch
 
 from pipeline.benchmarks.ind import IND, read_index, read_windows
-from pipeline.config.cws import CwsParams
-from pipeline.config.eval import EvalParams
-from pipeline.config.evaluate_baseline import EvaluateBaselineParams
-from pipeline.config.ind_benchmark import IndBenchmarkParams
-from pipeline.config.loading import load_profile, load_section
 from pipeline.config.runtime import RuntimeParams
-from pipeline.config.segmentation import SegmentationParams
-from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.config.ttst import TtstParams
-from pipeline.config.ynet import YnetSettings
 from pipeline.data.semantic_maps import iou_summary, predicted_labels, resize_probabilities
 from pipeline.data.window_table import WindowArrays, select_split
 from pipeline.device import CPU
@@ -70,6 +61,16 @@ from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring,
 from pipeline.runners.ynet_training import train
 from ynet.segmentation import N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
+if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it reads (code_graph)
+    from pipeline.config.cws import CwsParams
+    from pipeline.config.eval import EvalParams
+    from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+    from pipeline.config.ind_benchmark import IndBenchmarkParams
+    from pipeline.config.segmentation import SegmentationParams
+    from pipeline.config.train_baseline import TrainBaselineParams
+    from pipeline.config.ttst import TtstParams
+    from pipeline.config.ynet import YnetSettings
+
 
 MAPS = "segmentation/maps.npz"  # in the checkpoint folder: the maps Y-net trained on, for scoring
 REFERENCE = "constant_velocity"  # the registered model inD scores beside the paper's
@@ -79,7 +80,7 @@ IND_MODELS = (OURS, *BASELINE_MODELS)  # one stored predictions file each
 
 @dataclass(frozen=True)
 class IndTrainSettings:
-    """What training on inD is configured by (`train_ind`): `from_params` reads params.yaml."""
+    """What training on inD is configured by, as stage `train_ind` read it from params.yaml."""
 
     profile: str
     ind: IndBenchmarkParams
@@ -89,23 +90,12 @@ class IndTrainSettings:
     train_baseline: TrainBaselineParams
     runtime: RuntimeParams = field(default_factory=lambda: RuntimeParams(device="cpu"))
 
-    @classmethod
-    def from_params(cls, params: dict) -> IndTrainSettings:
-        return cls(
-            profile=params["profile"],
-            ind=load_profile(IndBenchmarkParams, "ind_benchmark", params),
-            ynet=load_profile(YnetSettings, "ynet", params),
-            segmentation=load_profile(SegmentationParams, "segmentation", params),
-            baseline_configs={m: baseline_runs.model_config(m, params) for m in TRAINED_BASELINES},
-            train_baseline=load_section(TrainBaselineParams, "train_baseline", params),
-            runtime=load_section(RuntimeParams, "runtime", params),
-        )
-
 
 @dataclass(frozen=True)
 class IndEvalSettings:
-    """What scoring on inD is configured by (`evaluate_ind`); the models' own settings come from
-    their checkpoints. `threads`: torch threads for the baselines (`train_baseline.threads`)."""
+    """What scoring on inD is configured by, as stage `evaluate_ind` read it from params.yaml; the
+    models' own settings come from their checkpoints. `threads`: torch threads for the baselines
+    (`train_baseline.threads`)."""
 
     profile: str
     eval: EvalParams
@@ -114,18 +104,6 @@ class IndEvalSettings:
     evaluate_baseline: EvaluateBaselineParams
     threads: int
     runtime: RuntimeParams = field(default_factory=lambda: RuntimeParams(device="cpu"))
-
-    @classmethod
-    def from_params(cls, params: dict) -> IndEvalSettings:
-        return cls(
-            profile=params["profile"],
-            eval=load_profile(EvalParams, "eval", params),
-            ttst=load_section(TtstParams, "ttst", params),
-            cws=load_section(CwsParams, "cws", params),
-            evaluate_baseline=load_section(EvaluateBaselineParams, "evaluate_baseline", params),
-            threads=load_section(TrainBaselineParams, "train_baseline", params).threads,
-            runtime=load_section(RuntimeParams, "runtime", params),
-        )
 
 
 @dataclass(frozen=True)

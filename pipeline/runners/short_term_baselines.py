@@ -20,21 +20,30 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.runners.baseline_runs import model_config
 
 SECTION = "short_term_baselines"
 
 
-def overrides(params: Mapping[str, Any], model: str, dataset: str) -> dict[str, Any]:
+@dataclass(frozen=True)
+class BaselineOverrides:
+    """Section `short_term_baselines` for the active profile, as written (it has no class: its
+    settings are the models' own config fields), with the profile's name for the messages."""
+
+    profile: str
+    models: Any  # {<model>: {<benchmark>: {setting: value} | None}}: short_term_baselines.<profile>
+
+
+def overrides(section: BaselineOverrides, model: str, dataset: str) -> dict[str, Any]:
     """`short_term_baselines.<profile>.<model>.<benchmark>` of the active profile ({} if empty);
     <benchmark>: the `settings_key` of `dataset`'s benchmark (sdd, ethucy)."""
-    profile = params["profile"]
+    profile = section.profile
     key = short_term(dataset).settings_key
     try:
-        value = params[SECTION][profile][model][key]
+        value = section.models[model][key]
     except (KeyError, TypeError) as error:
         raise ValueError(f"params.yaml: {SECTION}.{profile}.{model}.{key} is "
                          f"missing ({error})") from None
@@ -46,13 +55,13 @@ def overrides(params: Mapping[str, Any], model: str, dataset: str) -> dict[str, 
     return dict(value)
 
 
-def baseline_config(model: str, dataset: str, params: Mapping[str, Any], epochs: int):
-    """The model's config for `dataset`: its section, this benchmark's epochs and overrides. An
-    unknown setting or a bad value fails here, naming the params key."""
-    changes = overrides(params, model, dataset)
-    base = model_config(model, dict(params))
+def baseline_config(model: str, dataset: str, base: Any, section: BaselineOverrides, epochs: int):
+    """The model's config for `dataset`: `base` (its section, `<model>.<profile>`), this
+    benchmark's epochs and overrides. An unknown setting or a bad value fails here, naming the
+    params key."""
+    changes = overrides(section, model, dataset)
     unknown = sorted(set(changes) - {f.name for f in dataclasses.fields(base)})
     if unknown:
-        raise ValueError(f"params.yaml: {SECTION}.{params['profile']}.{model}."
+        raise ValueError(f"params.yaml: {SECTION}.{section.profile}.{model}."
                          f"{short_term(dataset).settings_key}: {model} has no setting(s) {unknown}")
     return dataclasses.replace(base, **changes, epochs=epochs)

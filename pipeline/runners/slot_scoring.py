@@ -19,15 +19,16 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pipeline.config.cws import CwsParams
 from pipeline.config.eval import EvalParams
-from pipeline.config.loading import ParamsError, from_dict, load_profile, load_section
+from pipeline.config.loading import ParamsError, from_dict
 from pipeline.config.ttst import TtstParams
-from pipeline.config.ynet_horizons import HorizonParams
-from pipeline.config.ynet_seeds import YnetSeedsParams, ynet_seed_slots
 from pipeline.io import IntermediateError, index_value, read_json_index
+
+if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it reads (code_graph)
+    from pipeline.config.ynet_horizons import HorizonParams
 
 EVAL_KEYS = ("k_e", "k_a", "rounds", "seed", "batch_size", "chunk_size", "bf16", "threads")
 """The `eval.<profile>` keys a slot is scored with (the rest concern `evaluate_ynet` alone)."""
@@ -45,6 +46,21 @@ class SlotScoring:
     cws: CwsParams
 
 
+@dataclass(frozen=True)
+class SlotSettings:
+    """What the slots are resolved from, as stage `ynet_slot_scoring` read it from params.yaml."""
+
+    profile: str
+    horizons: Any  # windows.horizons, as written: checked to hold release_horizon
+    release_horizon: Any  # windows.release_horizon, as written
+    eval: EvalParams  # eval.<profile>
+    ttst: TtstParams
+    cws: CwsParams
+    ynet_horizons: HorizonParams  # ynet_horizons.<profile>: the horizons trained, their rounds
+    seeds: list[int]  # ynet_seeds.<profile>.seeds: the extra seeds trained
+    seed_slots: list[int]  # ynet_seeds.slots: the seeds a stage exists for
+
+
 def horizon_slot(horizon: int) -> str:
     return f"tf{horizon}"
 
@@ -53,22 +69,18 @@ def seed_slot(seed: int) -> str:
     return f"seed{seed}"
 
 
-def slot_payloads(params: dict[str, Any]) -> dict[str, dict]:
+def slot_payloads(settings: SlotSettings) -> dict[str, dict]:
     """Slot name -> the JSON its evaluation stage reads, for every horizon slot (the horizons of
     `windows.horizons` but `windows.release_horizon`) and every seed slot (`ynet_seeds.slots`)."""
-    profile = params.get("profile")
-    windows = params.get("windows", {})
-    horizons, release = windows.get("horizons"), windows.get("release_horizon")
+    horizons, release = settings.horizons, settings.release_horizon
     if not isinstance(horizons, list) or release not in horizons:
         raise ParamsError("params.yaml:windows: horizons must be a list holding release_horizon, "
                           f"got {horizons!r} and {release!r}")
-    eval_params = load_profile(EvalParams, "eval", params)
-    scored = {"profile": profile, "scored": True,
-              "ttst": dataclasses.asdict(load_section(TtstParams, "ttst", params)),
-              "cws": dataclasses.asdict(load_section(CwsParams, "cws", params))}
-    main_eval = {key: getattr(eval_params, key) for key in EVAL_KEYS}
+    scored = {"profile": settings.profile, "scored": True,
+              "ttst": dataclasses.asdict(settings.ttst), "cws": dataclasses.asdict(settings.cws)}
+    main_eval = {key: getattr(settings.eval, key) for key in EVAL_KEYS}
 
-    horizon_params = load_profile(HorizonParams, "ynet_horizons", params)
+    horizon_params = settings.ynet_horizons
     payloads = {}
     for horizon in horizons:
         if horizon == release:
@@ -77,10 +89,9 @@ def slot_payloads(params: dict[str, Any]) -> dict[str, dict]:
         payloads[slot] = ({"slot": slot, **scored,
                            "eval": {**main_eval, "k_a": 1, "rounds": horizon_params.rounds}}
                           if horizon in horizon_params.horizons else {"slot": slot, "scored": False})
-    seeds = load_profile(YnetSeedsParams, "ynet_seeds", params).seeds
-    for seed in ynet_seed_slots(params):
+    for seed in settings.seed_slots:
         slot = seed_slot(seed)
-        payloads[slot] = ({"slot": slot, **scored, "eval": main_eval} if seed in seeds
+        payloads[slot] = ({"slot": slot, **scored, "eval": main_eval} if seed in settings.seeds
                           else {"slot": slot, "scored": False})
     return payloads
 

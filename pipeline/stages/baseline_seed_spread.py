@@ -19,7 +19,7 @@ import argparse
 from pathlib import Path
 
 from pipeline.config.baseline_seeds import BaselineSeedsParams
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.windows import WindowParams
 from pipeline.config.ynet import ynet_main_seed
 from pipeline.config.ynet_seeds import YnetSeedsParams, ynet_seed_slots
@@ -38,7 +38,7 @@ def main(argv: list[str] | None = None) -> None:
     params = read_params()
     horizons = load_section(WindowParams, "windows", params).horizons
     extra = load_section(BaselineSeedsParams, "baseline_seeds", params).extra
-    ynet = YnetSeeds(params["profile"], ynet_main_seed(params), ynet_seed_slots(params),
+    ynet = YnetSeeds(active_profile(params), ynet_main_seed(params), ynet_seed_slots(params),
                      load_profile(YnetSeedsParams, "ynet_seeds", params))
     write_json(seed_spread(args.metrics, horizons, extra, ynet), args.out)
 

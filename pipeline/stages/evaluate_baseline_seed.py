@@ -13,14 +13,21 @@ between this record and `metrics/baselines/<model>_tf<H>.json`; the record adds 
 
 from __future__ import annotations
 
-from pipeline.config.loading import read_params
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.windows import WindowParams
 from pipeline.runners.baseline_runs import run_arguments, score_to_file, training_seed
 
 
 def main(argv: list[str] | None = None) -> None:
     args = run_arguments(__doc__.splitlines()[0], "the extra seed's model").parse_args(argv)
+    params = read_params()
     score_to_file(args.model, args.table, args.horizon, args.checkpoint_dir, args.metrics, None,
-                  read_params(), {"training_seed": training_seed(args.checkpoint_dir)})
+                  load_section(EvaluateBaselineParams, "evaluate_baseline", params),
+                  load_section(WindowParams, "windows", params).n_past,
+                  load_section(RuntimeParams, "runtime", params),
+                  {"training_seed": training_seed(args.checkpoint_dir)})
 
 
 if __name__ == "__main__":

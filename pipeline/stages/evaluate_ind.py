@@ -20,7 +20,13 @@ import argparse
 import json
 from pathlib import Path
 
-from pipeline.config.loading import read_params
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.ttst import TtstParams
 from pipeline.device import SCORING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.runners.ind import IndEvalSettings, evaluate_benchmark, write_predictions
@@ -36,7 +42,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--predictions", type=Path, required=True,
                         help="folder of every model's stored test predictions (<model>.parquet)")
     args = parser.parse_args(argv)
-    settings = IndEvalSettings.from_params(read_params())
+    params = read_params()
+    settings = IndEvalSettings(
+        profile=active_profile(params),
+        eval=load_profile(EvalParams, "eval", params),
+        ttst=load_section(TtstParams, "ttst", params),
+        cws=load_section(CwsParams, "cws", params),
+        evaluate_baseline=load_section(EvaluateBaselineParams, "evaluate_baseline", params),
+        threads=load_section(TrainBaselineParams, "train_baseline", params).threads,
+        runtime=load_section(RuntimeParams, "runtime", params))
     device = select_device(settings.runtime.device, purpose=SCORING)
     print(f"evaluate_ind: on {describe(device)}")
     trained = json.loads(args.train_metrics.read_text())

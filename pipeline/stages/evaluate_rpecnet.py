@@ -13,7 +13,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config.loading import read_params
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.windows import WindowParams
 from pipeline.runners.baseline_runs import score_to_file
 
 MODEL = "rpecnet"
@@ -28,8 +31,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--predictions", type=Path, required=True,
                         help="every round's test predictions written (parquet)")
     args = parser.parse_args(argv)
+    params = read_params()
     score_to_file(MODEL, args.table, args.horizon, args.checkpoint_dir, args.metrics,
-                  args.predictions, read_params())
+                  args.predictions,
+                  load_section(EvaluateBaselineParams, "evaluate_baseline", params),
+                  load_section(WindowParams, "windows", params).n_past,
+                  load_section(RuntimeParams, "runtime", params))
 
 
 if __name__ == "__main__":

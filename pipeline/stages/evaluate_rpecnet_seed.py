@@ -12,7 +12,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config.loading import read_params
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.windows import WindowParams
 from pipeline.runners.baseline_runs import score_to_file, training_seed
 
 MODEL = "rpecnet"
@@ -25,8 +28,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoint-dir", type=Path, required=True, help="the extra seed's t_f = 5 PECNet")
     parser.add_argument("--metrics", type=Path, required=True, help="metrics JSON written")
     args = parser.parse_args(argv)
+    params = read_params()
     score_to_file(MODEL, args.table, args.horizon, args.checkpoint_dir, args.metrics, None,
-                  read_params(), {"training_seed": training_seed(args.checkpoint_dir)})
+                  load_section(EvaluateBaselineParams, "evaluate_baseline", params),
+                  load_section(WindowParams, "windows", params).n_past,
+                  load_section(RuntimeParams, "runtime", params),
+                  {"training_seed": training_seed(args.checkpoint_dir)})
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from pathlib import Path
 import torch
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     trained = json.loads(args.train_metrics.read_text())
     params = read_params()
-    profile = params["profile"]
+    profile = active_profile(params)
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     windows = load_section(ShortTermParams, "short_term", params)
     device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)

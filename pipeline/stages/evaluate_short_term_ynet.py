@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.dataset != "sdd" and args.ethucy_scenes is None:
         parser.error(f"Y-net on {args.dataset} needs --ethucy-scenes")
     params = read_params()
-    profile = params["profile"]
+    profile = active_profile(params)
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     windows = load_section(ShortTermParams, "short_term", params)
     device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)

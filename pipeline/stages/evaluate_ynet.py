@@ -24,7 +24,7 @@ import pandas as pd
 
 from pipeline.config.cws import CwsParams
 from pipeline.config.eval import EvalParams
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.ttst import TtstParams
 from pipeline.data.semantic_maps import load_semantic_maps
@@ -77,7 +77,7 @@ def main(argv: list[str] | None = None) -> None:
                                  extras=not args.main_only, after_main=after_main, kept=kept)
     main_options = sampling_options(eval_params.k_e, eval_params.k_a, ttst, cws, True, True)
     kept.write(args.predictions, prediction_metadata(args.windows, main_options, args.model))
-    write_json({"profile": params["profile"], "t_f": int(test.future.shape[1]),
+    write_json({"profile": active_profile(params), "t_f": int(test.future.shape[1]),
                 "n_windows": len(test), "rounds": eval_params.rounds, **scores}, args.metrics)
     if args.qualitative:
         write_npz(args.qualitative, qualitative_arrays(model, scenes, settings, eval_params, ttst,

@@ -15,8 +15,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config.loading import read_params
-from pipeline.harness.model_runs import fit_to_workdir
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
+from pipeline.harness.model_runs import fit_to_workdir, registered
+from pipeline.models import load_models
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -28,7 +31,10 @@ def main(argv: list[str] | None = None) -> None:
                         help="folder written: what the fitted model keeps, and fit.json")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"))
     args = parser.parse_args(argv)
-    fit_to_workdir(args.model, args.horizon, args.table, args.workdir, read_params(args.params))
+    params = read_params(args.params)
+    fit_to_workdir(registered(args.model, load_models(params)), args.horizon, args.table,
+                   args.workdir, load_section(TrainBaselineParams, "train_baseline", params),
+                   load_section(WindowParams, "windows", params).n_past)
 
 
 if __name__ == "__main__":

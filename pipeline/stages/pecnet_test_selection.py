@@ -22,8 +22,14 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from pipeline.config.loading import read_params
-from pipeline.studies.pecnet_test_selection import diagnose, summary_line
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
+from pipeline.config.pecnet import PecnetConfig
+from pipeline.config.pecnet_test_selection import PecnetTestSelectionParams
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
+from pipeline.studies.pecnet_test_selection import DiagnosticSettings, diagnose, summary_line
 from pipeline.io import write_json
 
 
@@ -35,8 +41,17 @@ def main(argv: list[str] | None = None) -> None:
                         help="train_pecnet_tf<t_f>.json of stage train_baseline, one per horizon")
     parser.add_argument("--out", type=Path, required=True, help="JSON written")
     args = parser.parse_args(argv)
+    params = read_params()
+    settings = DiagnosticSettings(
+        active_profile(params),
+        load_section(PecnetTestSelectionParams, "pecnet_test_selection", params),
+        load_profile(PecnetConfig, "pecnet", params),
+        load_section(TrainBaselineParams, "train_baseline", params),
+        load_section(EvaluateBaselineParams, "evaluate_baseline", params).epoch_selection,
+        load_section(WindowParams, "windows", params).n_past,
+        load_section(RuntimeParams, "runtime", params))
     with tempfile.TemporaryDirectory(prefix="pecnet_test_selection_") as scratch:
-        record = diagnose(read_params(), args.tables, args.training_facts, Path(scratch))
+        record = diagnose(settings, args.tables, args.training_facts, Path(scratch))
     for name, row in record["per_horizon"].items():
         kept, compat = row["validation_selected"], row["compat"]
         for protocol in record["protocols"]:

@@ -19,8 +19,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config.loading import read_params
-from pipeline.harness.model_runs import predict_to_files
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.windows import WindowParams
+from pipeline.harness.model_runs import predict_to_files, registered
+from pipeline.models import load_models
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -34,8 +37,11 @@ def main(argv: list[str] | None = None) -> None:
                         help="every round's test predictions written (parquet)")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"))
     args = parser.parse_args(argv)
-    predict_to_files(args.model, args.horizon, args.table, args.workdir, args.metrics,
-                     args.predictions, read_params(args.params))
+    params = read_params(args.params)
+    predict_to_files(registered(args.model, load_models(params)), args.horizon, args.table,
+                     args.workdir, args.metrics, args.predictions,
+                     load_section(EvaluateBaselineParams, "evaluate_baseline", params),
+                     load_section(WindowParams, "windows", params).n_past)
 
 
 if __name__ == "__main__":

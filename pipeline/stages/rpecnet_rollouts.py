@@ -14,7 +14,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config.loading import read_params
+from pipeline.config.evaluate_baseline import EvaluateBaselineParams
+from pipeline.config.loading import load_section, read_params
+from pipeline.config.rpecnet_rollouts import RpecnetRolloutsParams
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.windows import WindowParams
 from pipeline.studies.rpecnet_rollouts import rollouts_record
 from pipeline.io import write_json
 
@@ -27,8 +31,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, required=True, help="metrics JSON written")
     parser.add_argument("--params", type=Path, default=Path("params.yaml"))
     args = parser.parse_args(argv)
-    write_json(rollouts_record(args.horizon_windows, args.checkpoint_dir, read_params(args.params)),
-               args.out)
+    params = read_params(args.params)
+    record = rollouts_record(
+        args.horizon_windows, args.checkpoint_dir,
+        load_section(RpecnetRolloutsParams, "rpecnet_rollouts", params),
+        load_section(EvaluateBaselineParams, "evaluate_baseline", params).epoch_selection,
+        load_section(WindowParams, "windows", params).n_past,
+        load_section(RuntimeParams, "runtime", params))
+    write_json(record, args.out)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.segmentation import SegmentationParams
 from pipeline.data.labels import read_index
@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> None:
     raw = read_params()
     params = load_profile(SegmentationParams, "segmentation", raw)
     runtime = load_section(RuntimeParams, "runtime", raw)
-    profile = raw["profile"]
+    profile = active_profile(raw)
     torch.set_num_threads(params.threads)
     device = select_device(runtime.device, purpose=TRAINING)
 

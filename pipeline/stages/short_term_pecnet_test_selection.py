@@ -27,15 +27,21 @@ from pathlib import Path
 
 import torch
 
-from pipeline.config.loading import load_section, read_params
+from pipeline.config.loading import (active_profile, load_profile, load_section, profile_entry,
+                                     read_params)
+from pipeline.config.pecnet import PecnetConfig
 from pipeline.config.runtime import RuntimeParams
+from pipeline.config.short_term import ShortTermParams
+from pipeline.config.short_term_models import ShortTermModelsParams
+from pipeline.config.short_term_pecnet_test_selection import ShortTermPecnetTestSelectionParams
 from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import TRAINING, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.studies.pecnet_test_selection import summary_line
-from pipeline.studies.short_term_test_selection import (fold_record, switched_off_record,
-                                                        switched_on)
+from pipeline.runners.short_term_baselines import SECTION, BaselineOverrides
+from pipeline.studies.short_term_test_selection import (MODEL, SWITCH, RetrainSettings, fold_record,
+                                                        switched_off_record, switched_on)
 
 
 @exit_on_bad_intermediate
@@ -51,15 +57,23 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, required=True, help="JSON written")
     args = parser.parse_args(argv)
     params = read_params()
-    if not switched_on(args.dataset, params):
-        record = switched_off_record(args.dataset, params)
+    profile = active_profile(params)
+    switch = load_section(ShortTermPecnetTestSelectionParams, SWITCH, params)
+    if not switched_on(args.dataset, switch):
+        record = switched_off_record(args.dataset, profile)
         print(f"short_term_pecnet_test_selection {args.dataset}: {record['not_run_reason']}")
         write_json(record, args.out)
         return
-    torch.set_num_threads(load_section(TrainBaselineParams, "train_baseline", params).threads)
+    retrain = RetrainSettings(
+        profile, load_profile(ShortTermModelsParams, "short_term_models", params),
+        load_section(ShortTermParams, "short_term", params),
+        load_section(TrainBaselineParams, "train_baseline", params),
+        load_profile(PecnetConfig, MODEL, params),
+        BaselineOverrides(profile, profile_entry(params, SECTION)))
+    torch.set_num_threads(retrain.train_baseline.threads)
     device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=TRAINING)
     with tempfile.TemporaryDirectory(prefix="short_term_pecnet_test_selection_") as scratch:
-        record = fold_record(args.dataset, params, args.windows, args.training_facts,
+        record = fold_record(args.dataset, retrain, args.windows, args.training_facts,
                              args.run_metrics, Path(scratch) / f"{args.dataset}_pecnet", device)
     kept, compat = record["validation_selected"], record["compat"]
     for protocol in record["protocols"]:

@@ -28,7 +28,7 @@ import json
 import time
 from pathlib import Path
 
-from pipeline.config.loading import read_params
+from pipeline.config.loading import active_profile, read_params
 from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.io import write_json
 from pipeline.model_list import TRAINED_BASELINES
@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("Y-net needs --maps, --sdd and --ethucy-scenes")
     params = read_params()
     scratch = scratch_params(args.scratch.resolve(), params,
-                             {seed_key(args.model, params["profile"]): args.seed})
+                             {seed_key(args.model, active_profile(params)): args.seed})
     started = time.perf_counter()
     for stage, stage_args in stage_commands(args, scratch):
         run_stage(stage, stage_args, scratch)

@@ -15,8 +15,12 @@ Params: `train_baseline` (seed, threads), `<model>.<profile>`, `profile`, `windo
 
 from __future__ import annotations
 
-from pipeline.config.loading import read_params
-from pipeline.runners.baseline_runs import run_arguments, train_record
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
+from pipeline.runners.baseline_runs import BaselineTraining, run_arguments, train_record
+from pipeline.runners.baselines import config_class
 from pipeline.io import write_json
 from pipeline.preemption import exit_when_stopped
 
@@ -24,7 +28,13 @@ from pipeline.preemption import exit_when_stopped
 @exit_when_stopped
 def main(argv: list[str] | None = None) -> None:
     args = run_arguments(__doc__.splitlines()[0], "model folder (best.pt, last.pt)").parse_args(argv)
-    record = train_record(args.model, args.horizon, args.table, args.checkpoint_dir, read_params())
+    params = read_params()
+    training = BaselineTraining(
+        active_profile(params), load_profile(config_class(args.model), args.model, params),
+        load_section(TrainBaselineParams, "train_baseline", params),
+        load_section(WindowParams, "windows", params).n_past,
+        load_section(RuntimeParams, "runtime", params))
+    record = train_record(args.model, args.horizon, args.table, args.checkpoint_dir, training)
     write_json(record, args.metrics)
 
 

@@ -17,8 +17,13 @@ Params: `train_baseline.threads`, `<model>.<profile>`, `profile`, `windows.n_pas
 
 from __future__ import annotations
 
-from pipeline.config.loading import read_params
-from pipeline.runners.baseline_runs import run_arguments, train_record, validation_curve
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.windows import WindowParams
+from pipeline.runners.baseline_runs import (BaselineTraining, run_arguments, train_record,
+                                           validation_curve)
+from pipeline.runners.baselines import config_class
 from pipeline.io import write_json
 from pipeline.preemption import exit_when_stopped
 
@@ -28,7 +33,13 @@ def main(argv: list[str] | None = None) -> None:
     parser = run_arguments(__doc__.splitlines()[0], "model folder (best.pt, last.pt)")
     parser.add_argument("--seed", type=int, required=True, help="training seed (one of baseline_seeds.extra)")
     args = parser.parse_args(argv)
-    record = train_record(args.model, args.horizon, args.table, args.checkpoint_dir, read_params(),
+    params = read_params()
+    training = BaselineTraining(
+        active_profile(params), load_profile(config_class(args.model), args.model, params),
+        load_section(TrainBaselineParams, "train_baseline", params),
+        load_section(WindowParams, "windows", params).n_past,
+        load_section(RuntimeParams, "runtime", params))
+    record = train_record(args.model, args.horizon, args.table, args.checkpoint_dir, training,
                           seed=args.seed)
     write_json({**record, "val_ade_per_epoch": validation_curve(args.checkpoint_dir)}, args.metrics)
 

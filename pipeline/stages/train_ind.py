@@ -17,10 +17,17 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config.loading import read_params
+from pipeline.config.ind_benchmark import IndBenchmarkParams
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.segmentation import SegmentationParams
+from pipeline.config.train_baseline import TrainBaselineParams
+from pipeline.config.ynet import YnetSettings
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
+from pipeline.model_list import TRAINED_BASELINES
+from pipeline.runners.baselines import config_class
 from pipeline.runners.ind import IndTrainSettings, train_benchmark
 
 
@@ -34,7 +41,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--checkpoint-dir", type=Path, required=True)
     parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
     args = parser.parse_args(argv)
-    settings = IndTrainSettings.from_params(read_params())
+    params = read_params()
+    settings = IndTrainSettings(
+        profile=active_profile(params),
+        ind=load_profile(IndBenchmarkParams, "ind_benchmark", params),
+        ynet=load_profile(YnetSettings, "ynet", params),
+        segmentation=load_profile(SegmentationParams, "segmentation", params),
+        baseline_configs={m: load_profile(config_class(m), m, params) for m in TRAINED_BASELINES},
+        train_baseline=load_section(TrainBaselineParams, "train_baseline", params),
+        runtime=load_section(RuntimeParams, "runtime", params))
     device = select_device(settings.runtime.device, purpose=TRAINING)
     print(f"train_ind: on {describe(device)}")
     with Preemption(settings.runtime.max_minutes) as preemption:

@@ -25,7 +25,8 @@ from pathlib import Path
 import torch
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import (active_profile, load_profile, load_section, profile_entry,
+                                     read_params)
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
@@ -36,7 +37,8 @@ from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import train_baseline, training_record
-from pipeline.runners.short_term_baselines import baseline_config
+from pipeline.runners.baselines import config_class
+from pipeline.runners.short_term_baselines import SECTION, BaselineOverrides, baseline_config
 
 
 @exit_when_stopped
@@ -51,7 +53,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
     args = parser.parse_args(argv)
     params = read_params()
-    profile = params["profile"]
+    profile = active_profile(params)
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     windows = load_section(ShortTermParams, "short_term", params)
     runtime = load_section(RuntimeParams, "runtime", params)
@@ -62,7 +64,9 @@ def main(argv: list[str] | None = None) -> None:
     bench = benchmark.load_in_unit(args.windows, windows.n_past, windows.n_future)
     seeds = load_section(TrainBaselineParams, "train_baseline", params)
     torch.set_num_threads(seeds.threads)
-    config = baseline_config(args.model, args.dataset, params,
+    config = baseline_config(args.model, args.dataset,
+                             load_profile(config_class(args.model), args.model, params),
+                             BaselineOverrides(profile, profile_entry(params, SECTION)),
                              benchmark.epochs(settings, args.model))
     with Preemption(runtime.max_minutes) as preemption:
         facts = train_baseline(args.model, bench, config, args.checkpoint_dir, seeds.seed,

@@ -22,7 +22,7 @@ import argparse
 from pathlib import Path
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
     args = parser.parse_args(argv)
     params = read_params()
-    profile = params["profile"]
+    profile = active_profile(params)
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)
     if args.dataset not in settings.ynet_datasets:
         write_json(not_run_record(args.dataset, MODEL, profile, settings), args.metrics)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.device import TRAINING, describe, select_device
@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> None:
         summary = train_main(args.windows, args.semantic_maps, args.sdd, args.n_past, settings,
                              args.checkpoint_dir, args.model, args.history, device, preemption)
     print(f"train_ynet: trained on {describe(device)}")
-    summary["profile"] = params["profile"]
+    summary["profile"] = active_profile(params)
     write_json(summary, args.metrics)
 
 

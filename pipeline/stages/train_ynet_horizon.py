@@ -22,7 +22,7 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.windows import WindowParams
 from pipeline.config.ynet import YnetSettings
@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
     args = parser.parse_args(argv)
     params = read_params()
-    profile = params["profile"]
+    profile = active_profile(params)
     horizon_params = load_profile(HorizonParams, "ynet_horizons", params)
     if args.horizon not in horizon_params.horizons:
         args.checkpoint_dir.mkdir(parents=True, exist_ok=True)  # a declared output, even empty

@@ -22,7 +22,7 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from pipeline.config.loading import load_profile, load_section, read_params
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.config.ynet_seeds import YnetSeedsParams
@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
     args = parser.parse_args(argv)
     params = read_params()
-    profile = params["profile"]
+    profile = active_profile(params)
     seeds = load_profile(YnetSeedsParams, "ynet_seeds", params)
     if args.seed not in seeds.seeds:
         args.checkpoint_dir.mkdir(parents=True, exist_ok=True)  # a declared output, even empty

@@ -16,17 +16,34 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
-from pipeline.config.loading import read_params
+from pipeline.config.cws import CwsParams
+from pipeline.config.eval import EvalParams
+from pipeline.config.loading import active_profile, load_profile, load_section, read_params
+from pipeline.config.ttst import TtstParams
+from pipeline.config.ynet_horizons import HorizonParams
+from pipeline.config.ynet_seeds import YnetSeedsParams, ynet_seed_slots
 from pipeline.io import atomic_dir, write_json
-from pipeline.runners.slot_scoring import slot_payloads
+from pipeline.runners.slot_scoring import SlotSettings, slot_payloads
+
+
+def slot_settings(params: dict[str, Any]) -> SlotSettings:
+    """What the slots are resolved from, read from `params` (params.yaml as read); `windows` as
+    written (only its horizons: the stage declares no other key of it)."""
+    windows = params.get("windows", {})
+    return SlotSettings(
+        active_profile(params), windows.get("horizons"), windows.get("release_horizon"),
+        load_profile(EvalParams, "eval", params), load_section(TtstParams, "ttst", params),
+        load_section(CwsParams, "cws", params), load_profile(HorizonParams, "ynet_horizons", params),
+        load_profile(YnetSeedsParams, "ynet_seeds", params).seeds, ynet_seed_slots(params))
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
-    payloads = slot_payloads(read_params())
+    payloads = slot_payloads(slot_settings(read_params()))
     with atomic_dir(args.out, mode=0o755) as tmp:
         for slot, payload in payloads.items():
             write_json(payload, tmp / f"{slot}.json", sort_keys=True)

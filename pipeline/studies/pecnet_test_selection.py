@@ -27,29 +27,26 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TYPE_CHECKING
 
 import numpy as np
 import torch
 
-from pipeline.config.evaluate_baseline import EvaluateBaselineParams
-from pipeline.config.loading import load_section
-from pipeline.config.pecnet_test_selection import PecnetTestSelectionParams
-from pipeline.config.runtime import RuntimeParams
-from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import CPU, TRAINING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import epoch_selection
-from pipeline.runners.baseline_runs import model_config
 from pipeline.data.window_table import select_split
 from pipeline.runners.baselines.pecnet import Pecnet
 from pipeline.harness.scoring import best_endpoint_ade, min_ade_fde
 
 if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
     from pipeline.config.pecnet import PecnetConfig
+    from pipeline.config.pecnet_test_selection import PecnetTestSelectionParams
+    from pipeline.config.runtime import RuntimeParams
+    from pipeline.config.train_baseline import TrainBaselineParams
 
 PROTOCOLS = {
     "headline": "ours: min over K of ADE and, independently, min over K of FDE per window",
@@ -59,6 +56,20 @@ METRICS = ("ade", "fde")
 LABEL = ("compat diagnostic: upstream selects epochs on the TEST set (best test ADE and best test "
          "FDE over epochs, each its own epoch); never a headline number, which keeps the epoch "
          "chosen on validation")
+
+
+@dataclass(frozen=True)
+class DiagnosticSettings:
+    """What the long-term diagnostic is configured by, as stage `pecnet_test_selection` read it
+    from params.yaml: its own section and the headline training it repeats."""
+
+    profile: str
+    diagnostic: PecnetTestSelectionParams  # horizons, K and test seed
+    pecnet: PecnetConfig  # pecnet.<profile>
+    train_baseline: TrainBaselineParams  # seed and threads
+    epoch_selection: str  # evaluate_baseline.epoch_selection: the rule the headline scores
+    n_past: int  # windows.n_past
+    runtime: RuntimeParams
 
 
 def epoch_test_scores(pred: Any, truth: Any) -> dict[str, dict[str, float]]:
@@ -175,18 +186,16 @@ def headline_training(path: Path) -> dict:
         raise ValueError(f"{path}: no train_baseline best_epoch / best_val_ade ({e})") from e
 
 
-def horizon_record(horizon: int, table: Path, training_facts: Path, params: dict, scratch: Path,
-                   device: torch.device = CPU) -> dict:
+def horizon_record(horizon: int, table: Path, training_facts: Path, settings: DiagnosticSettings,
+                   scratch: Path, device: torch.device = CPU) -> dict:
     """One horizon's diagnostic: the retrain on `table` in the fresh folder `scratch`, its
     per-epoch validation and test scores, `compat_summary` under `evaluate_baseline.epoch_selection`,
     and whether its validation selection is `train_baseline`'s (`training_facts`)."""
-    diagnostic = load_section(PecnetTestSelectionParams, "pecnet_test_selection", params)
-    seed = load_section(TrainBaselineParams, "train_baseline", params).seed
-    selection = load_section(EvaluateBaselineParams, "evaluate_baseline", params).epoch_selection
-    n_past = load_section(WindowParams, "windows", params).n_past
+    diagnostic, seed = settings.diagnostic, settings.train_baseline.seed
+    selection = settings.epoch_selection
     headline = headline_training(training_facts)  # read first: a bad file fails before training
-    arrays = load_windows(table, n_past, horizon)
-    timed, fitted = retrain_scoring_test(arrays, model_config("pecnet", params), seed, diagnostic.k,
+    arrays = load_windows(table, settings.n_past, horizon)
+    timed, fitted = retrain_scoring_test(arrays, settings.pecnet, seed, diagnostic.k,
                                          diagnostic.seed, scratch, device)
     result = fitted.fit_result
     epochs = [{key: value for key, value in entry.items() if key != "test_seconds"} for entry in timed]
@@ -221,16 +230,16 @@ def by_horizon(paths: Sequence[Path], prefix: str, horizons: Sequence[int], what
     return found
 
 
-def diagnose(params: dict, tables: Sequence[Path], training_facts: Sequence[Path], scratch: Path) -> dict:
+def diagnose(settings: DiagnosticSettings, tables: Sequence[Path], training_facts: Sequence[Path],
+             scratch: Path) -> dict:
     """The stage's record: every horizon of `pecnet_test_selection.horizons`, each with its window
     table (`tables`: `tf<H>.parquet`) and headline training facts (`training_facts`:
     `train_pecnet_tf<H>.json`), checkpoints in `scratch/pecnet_tf<H>` (which must not exist yet),
-    under `params` (params.yaml as read), on `train_baseline.threads` threads."""
-    diagnostic = load_section(PecnetTestSelectionParams, "pecnet_test_selection", params)
+    under `settings`, on `train_baseline.threads` threads."""
+    diagnostic = settings.diagnostic
     table_of = by_horizon(tables, "tf", diagnostic.horizons, "window table")
     facts_of = by_horizon(training_facts, "train_pecnet_tf", diagnostic.horizons, "training facts file")
-    training = load_section(TrainBaselineParams, "train_baseline", params)
-    runtime = load_section(RuntimeParams, "runtime", params)
+    training, runtime = settings.train_baseline, settings.runtime
     torch.set_num_threads(training.threads)
     device = select_device(runtime.device, purpose=TRAINING)
     t0 = time.perf_counter()
@@ -241,8 +250,8 @@ def diagnose(params: dict, tables: Sequence[Path], training_facts: Sequence[Path
             raise ValueError(f"{folder}: exists; the retrain needs a fresh folder (no resume)")
         print(f"pecnet_test_selection t_f = {horizon}: {describe(device)}", flush=True)
         per_horizon[f"tf{horizon}"] = horizon_record(horizon, table_of[horizon], facts_of[horizon],
-                                                     params, folder, device)
-    return {"diagnostic": LABEL, "model": "pecnet", "profile": params["profile"],
+                                                     settings, folder, device)
+    return {"diagnostic": LABEL, "model": "pecnet", "profile": settings.profile,
             "seed": training.seed, "threads": training.threads, "device": describe(device),
             "k": diagnostic.k, "test_seed": diagnostic.seed, "protocols": dict(PROTOCOLS),
             "per_horizon": per_horizon, "wall_seconds": time.perf_counter() - t0}

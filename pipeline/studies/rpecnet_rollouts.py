@@ -23,22 +23,21 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
 
-from pipeline.config.evaluate_baseline import EvaluateBaselineParams
-from pipeline.config.loading import load_section
-from pipeline.config.rpecnet_rollouts import RpecnetRolloutsParams
-from pipeline.config.runtime import RuntimeParams
-from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import SCORING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.data.window_table import select_split
 from pipeline.runners.baselines.rpecnet import VARIANTS, RecurrentPecnet
 from pipeline.harness.scoring import min_ade_fde
+
+if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it reads (code_graph)
+    from pipeline.config.rpecnet_rollouts import RpecnetRolloutsParams
+    from pipeline.config.runtime import RuntimeParams
 
 MODEL = "rpecnet"
 
@@ -108,18 +107,15 @@ def horizon_record(model: RecurrentPecnet, arrays: WindowArrays, t_f: int,
             "test": {"variant": chosen, "n_windows": len(test_set), **test}}
 
 
-def rollouts_record(horizon_windows: Path, checkpoint_dir: Path, params: dict[str, Any]
-                    ) -> dict[str, Any]:
+def rollouts_record(horizon_windows: Path, checkpoint_dir: Path, settings: RpecnetRolloutsParams,
+                    selection: str, n_past: int, runtime: RuntimeParams) -> dict[str, Any]:
     """What the stage does: for every t_f of `rpecnet_rollouts.horizons`, `horizon_record` on
     `<horizon_windows>/tf<t_f>.parquet` with the PECNet of `checkpoint_dir` (the t_f = 5 one, the
-    epoch `evaluate_baseline.epoch_selection` keeps, as the headline R-PECNet), under
-    `rpecnet_rollouts`, `windows.n_past` and `runtime.device` of `params` (params.yaml as read)."""
-    settings = load_section(RpecnetRolloutsParams, "rpecnet_rollouts", params)
+    epoch `selection` keeps: `evaluate_baseline.epoch_selection`, as the headline R-PECNet), under
+    `settings` (section `rpecnet_rollouts`), `n_past` (`windows.n_past`) and `runtime.device`."""
     check_variants(settings.variants)
-    selection = load_section(EvaluateBaselineParams, "evaluate_baseline", params).epoch_selection
-    n_past = load_section(WindowParams, "windows", params).n_past
     torch.set_num_threads(settings.threads)
-    device = select_device(load_section(RuntimeParams, "runtime", params).device, purpose=SCORING)
+    device = select_device(runtime.device, purpose=SCORING)
     print(f"rpecnet_rollouts: {describe(device)}", flush=True)
     start = time.perf_counter()
     model = RecurrentPecnet.load(checkpoint_dir, device, selection)

@@ -20,38 +20,53 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import torch
 
 from pipeline.benchmarks.registry import short_term
-from pipeline.config.loading import load_profile, load_section
-from pipeline.config.short_term import ShortTermParams
-from pipeline.config.short_term_models import ShortTermModelsParams
-from pipeline.config.short_term_pecnet_test_selection import ShortTermPecnetTestSelectionParams
-from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.device import CPU, describe
 from pipeline.studies.pecnet_test_selection import (LABEL, PROTOCOLS, compat_summary,
                                                     retrain_scoring_splits)
 from pipeline.runners.short_term import sample_windows
-from pipeline.runners.short_term_baselines import baseline_config
+from pipeline.runners.short_term_baselines import BaselineOverrides, baseline_config
+
+if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it reads (code_graph)
+    from pipeline.config.pecnet import PecnetConfig
+    from pipeline.config.short_term import ShortTermParams
+    from pipeline.config.short_term_models import ShortTermModelsParams
+    from pipeline.config.short_term_pecnet_test_selection import ShortTermPecnetTestSelectionParams
+    from pipeline.config.train_baseline import TrainBaselineParams
 
 MODEL = "pecnet"
 SWITCH = "short_term_pecnet_test_selection"
 SELECTION = "raw"  # the epoch `evaluate_short_term_baseline` scores: best.pt, the lowest val ADE
 
 
-def switched_on(dataset: str, params: Mapping[str, Any]) -> bool:
+@dataclass(frozen=True)
+class RetrainSettings:
+    """What the retrain is configured by: the headline's training of PECNet on a short-term
+    benchmark, as the stage read it from params.yaml."""
+
+    profile: str
+    short_term_models: ShortTermModelsParams  # of the active profile: epochs, K, val windows, seed
+    short_term: ShortTermParams  # the windows' shape
+    train_baseline: TrainBaselineParams  # seed and threads
+    pecnet: PecnetConfig  # pecnet.<profile>, before the benchmark's epochs and overrides
+    overrides: BaselineOverrides
+
+
+def switched_on(dataset: str, switch: ShortTermPecnetTestSelectionParams) -> bool:
     """Whether the switch lists `dataset` (`short_term_pecnet_test_selection.folds`)."""
-    return dataset in load_section(ShortTermPecnetTestSelectionParams, SWITCH, params).folds
+    return dataset in switch.folds
 
 
-def switched_off_record(dataset: str, params: Mapping[str, Any]) -> dict:
+def switched_off_record(dataset: str, profile: str) -> dict:
     """What the stage writes for a fold the switch does not list (the report then names no
     compat number for it)."""
-    return {"diagnostic": LABEL, "model": MODEL, "dataset": dataset, "profile": params["profile"],
+    return {"diagnostic": LABEL, "model": MODEL, "dataset": dataset, "profile": profile,
             "not_run_reason": f"compat switch off for {dataset} ({SWITCH}.folds in params.yaml)"}
 
 
@@ -76,7 +91,7 @@ def headline_facts(training_facts: Path, run_metrics: Path) -> dict[str, Any]:
     return {**kept, "first_round": scored}
 
 
-def fold_record(dataset: str, params: Mapping[str, Any], windows: Path, training_facts: Path,
+def fold_record(dataset: str, retrain: RetrainSettings, windows: Path, training_facts: Path,
                 run_metrics: Path, scratch: Path, device: torch.device = CPU) -> dict:
     """One benchmark's diagnostic: PECNet retrained in the fresh folder `scratch` as the headline
     trains it on `dataset`, its per-epoch validation and test scores, `compat_summary`, and whether
@@ -84,12 +99,11 @@ def fold_record(dataset: str, params: Mapping[str, Any], windows: Path, training
     if Path(scratch).exists():
         raise ValueError(f"{scratch}: exists; the retrain needs a fresh folder (no resume)")
     headline = headline_facts(training_facts, run_metrics)  # read first: a bad file fails early
-    settings = load_profile(ShortTermModelsParams, "short_term_models", params)
-    shape = load_section(ShortTermParams, "short_term", params)
-    training = load_section(TrainBaselineParams, "train_baseline", params)
+    settings, shape, training = retrain.short_term_models, retrain.short_term, retrain.train_baseline
     benchmark = short_term(dataset)
     k = benchmark.ks(settings)[0]
-    config = baseline_config(MODEL, dataset, params, benchmark.epochs(settings, MODEL))
+    config = baseline_config(MODEL, dataset, retrain.pecnet, retrain.overrides,
+                             benchmark.epochs(settings, MODEL))
     bench = benchmark.load_in_unit(windows, shape.n_past, shape.n_future)
     val = sample_windows(bench.val, settings.val_windows, settings.seed)
     t0 = time.perf_counter()
@@ -101,7 +115,7 @@ def fold_record(dataset: str, params: Mapping[str, Any], windows: Path, training
     summary = compat_summary(epochs, SELECTION)
     kept_test = summary["validation_selected"]["test"]["headline"]
     return {
-        "diagnostic": LABEL, "model": MODEL, "dataset": dataset, "profile": params["profile"],
+        "diagnostic": LABEL, "model": MODEL, "dataset": dataset, "profile": retrain.profile,
         "unit": bench.unit, "device": describe(device), "seed": training.seed,
         "threads": training.threads, "k": k, "test_seed": settings.seed,
         "protocols": dict(PROTOCOLS),

@@ -52,6 +52,14 @@ def get(name: str):
         raise ValueError(f"unknown baseline {name!r}; known: {sorted(BASELINES)}") from None
 
 
+def config_class(name: str) -> type:
+    """The class of trained baseline `name`'s settings (section `sgan` / `pecnet`, one entry per
+    profile), which a stage loads for the active profile."""
+    if name not in TRAINABLE:
+        raise ValueError(f"{name!r} is not trained; trainable: {TRAINABLE}")
+    return get(name).config_class
+
+
 class Baseline:
     """Baseline `name` written to the contract of `pipeline.models`: `workdir` is its checkpoint
     folder (R-PECNet's: the t_f = 5 s PECNet's), `seed` the training seed in `fit` and the round's
