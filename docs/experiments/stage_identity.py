@@ -80,6 +80,10 @@ def run(stage, root: Path) -> tuple[dict, float, int]:
     outs = [Path(o.def_path) for o in stage.outs]
     for out in outs:
         p = root / out
+        linked = [a for a in p.parents if root in a.parents and a.is_symlink()]
+        if linked:  # writing there would write into the checkout the link points at
+            raise SystemExit(f"{stage.addressing}: its output {out} lies in {linked[0]}, a linked "
+                             "input folder of another stage run in this scratch tree")
         if p.is_symlink():
             p.unlink()
         elif p.is_dir():
