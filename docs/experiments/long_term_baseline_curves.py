@@ -42,7 +42,7 @@ import numpy as np
 import torch
 
 from pipeline import checkpoints
-from pipeline.config.loading import load_section, read_params
+from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.config.windows import WindowParams
@@ -52,7 +52,8 @@ from pipeline.device import TRAINING, select_device
 from pipeline.harness import epoch_selection
 from pipeline.runners import baselines
 from pipeline.runners.baselines import training
-from pipeline.runners.baseline_runs import model_config, train
+from pipeline.runners.baseline_runs import train
+from pipeline.runners.baselines import config_class
 from pipeline.runners.baselines.common import fit_result_from, load_checkpoint
 from pipeline.harness.metrics import window_errors
 from pipeline.io import write_json
@@ -101,7 +102,7 @@ def extend(model: str, horizon: int, epochs: int, seed: int, out: Path, params: 
     source = stage_folder(checkpoints_root, model, horizon, seed, settings.seed)
     arrays = load_windows(tables / f"tf{horizon}.parquet", n_past, horizon)
     val = select_split(arrays, "val")
-    base_config = model_config(model, params)
+    base_config = load_profile(config_class(model), model, params)
     record = json.loads(record_path.read_text()) if record_path.exists() else None
     if record is None:
         folder.mkdir(parents=True, exist_ok=True)

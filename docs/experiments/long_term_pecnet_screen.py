@@ -32,13 +32,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline.config.loading import load_section, read_params
+from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.config.windows import WindowParams
 from pipeline.data.window_table import load_windows, select_split
 from pipeline.device import CPU
 from pipeline.device import generator as seeded_generator
-from pipeline.runners.baseline_runs import model_config, train
+from pipeline.runners.baseline_runs import train
+from pipeline.runners.baselines import config_class
 from pipeline.runners.baselines.common import fit_result_from
 from pipeline.runners.baselines.pecnet import Pecnet
 from pipeline.harness.metrics import window_errors
@@ -96,7 +97,7 @@ def train_width(horizon: int, kl_weight: float, data_scale: float | None, epochs
         changes["data_scale"] = data_scale
     if epochs is not None:
         changes["epochs"] = epochs
-    config = dataclasses.replace(model_config("pecnet", params), **changes)
+    config = dataclasses.replace(load_profile(config_class("pecnet"), "pecnet", params), **changes)
     if out.exists():
         raise FileExistsError(f"{out}: exists; this screen trains from scratch into a fresh folder")
     t0 = time.perf_counter()
