@@ -55,7 +55,9 @@ def keep_freed_memory() -> None:
     """Re-execute this script with glibc malloc keeping freed memory (as dvc.yaml runs the torch
     stages), unless it already runs so."""
     if os.environ.get("GLIBC_TUNABLES") != KEEP_FREED_MEMORY:
-        os.execve(sys.executable, [sys.executable, *sys.argv],
+        spec = getattr(sys.modules["__main__"], "__spec__", None)  # run as `python -m bench.x`
+        argv = ["-m", spec.name, *sys.argv[1:]] if spec is not None else sys.argv
+        os.execve(sys.executable, [sys.executable, *argv],
                   {**os.environ, "GLIBC_TUNABLES": KEEP_FREED_MEMORY})
 
 
