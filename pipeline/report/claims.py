@@ -13,15 +13,14 @@ positive where the claim holds, e.g. PECNet's ADE - 1.5 x Y-net's for "better by
 margin has a spread over training seeds where any of its numbers comes from a model trained with
 several seeds (`metrics/baseline_seed_spread.json`: the baselines, and the main Y-net where the
 profile trains extra seeds, from `metrics/ynet_seeds/`; for Tables 1-2, their study's runs over
-training seeds, `ShortTermSeeds`, where a model has seeds on some ETH/UCY folds only and the others
-stay fixed). Where every such number has its per-seed
-values over one list of seeds, the margin is computed per seed (a number from one seed stays fixed)
-and is the mean of those margins, its spread their population std; otherwise it is computed from
-the main seed's numbers, with the spreads added in quadrature. A number quoted from the paper's
-table has no seed spread. A margin `holds` where its value exceeds its spread, `does not hold`
-where it is below minus its spread, and is `inconclusive` otherwise (a tie is never `holds`). A
-claim does not hold where any margin does not, is inconclusive where any other is, and holds where
-every margin holds.
+training seeds, `ShortTermSeeds`, a fold with one seed staying fixed in the ETH/UCY average).
+Where every such number has its per-seed values over one list of seeds, the margin is computed
+per seed (a number from one seed stays fixed) and is the mean of those margins, its spread their
+population std; otherwise it is computed from the main seed's numbers, with the spreads added in
+quadrature. A number quoted from the paper's table has no seed spread. A margin `holds` where its
+value exceeds its spread, `does not hold` where it is below minus its spread, and is
+`inconclusive` otherwise (a tie is never `holds`). A claim does not hold where any margin does
+not, is inconclusive where any other is, and holds where every margin holds.
 
 Claims of size ("by 26.8 %", "by over 50 %") are margins of size: the other model's error minus
 (1 + size) x Y-net's, the size as printed less half its last digit (`HALF_DIGIT`; a round "over
@@ -321,7 +320,8 @@ class Gain:
         per_seed = self.per_seed_gains()
         measured = (statistics.fmean(g for _, g in per_seed) if per_seed
                     else gain(self.other.value, self.ynet.value)) * 100
-        over = f" (mean over training seeds {', '.join(str(s) for s, _ in per_seed)})" if per_seed else ""
+        seeds = ", ".join(str(seed) for seed, _ in per_seed)
+        over = f" (mean over training seeds {seeds})" if per_seed else ""
         return (f"{self.metric} {measured:+.1f} %{over} against the claimed "
                 f"{self.claimed * 100:.1f} %: direction {direction}, size {size}")
 
@@ -479,7 +479,8 @@ def short_sdd(store: MetricsStore, model: str, k: int, metric: str,
               short_term: ShortTermSeeds | None = None) -> Term | Absent:
     """Table 1's number, with its spread over the training seeds of Tables 1-2's study runs."""
     spread = over_seeds(short_term.per_seed("sdd", model, k, metric)) if short_term else None
-    return term(model, lookup(store, "short_term/sdd.json", ("models", model, f"k{k}", metric)), spread)
+    value = lookup(store, "short_term/sdd.json", ("models", model, f"k{k}", metric))
+    return term(model, value, spread)
 
 
 def ethucy_avg(store: MetricsStore, model: str, metric: str,
@@ -502,7 +503,8 @@ def ethucy_avg(store: MetricsStore, model: str, metric: str,
     spread = over_seeds(per_seed)
     if spread is None:
         return Term(label(model), average)
-    part = "" if len(seeded) == len(ETHUCY_SCENES) else f"the {', '.join(seeded)} fold{'s' * (len(seeded) > 1)}"
+    folds = f"the {', '.join(seeded)} fold{'s' * (len(seeded) > 1)}"
+    part = "" if len(seeded) == len(ETHUCY_SCENES) else folds
     return Term(label(model), average, spread.std, spread.seeds, spread.per_seed, seeded_part=part)
 
 
