@@ -30,12 +30,19 @@ class PaperModel:
     ours: bool = False  # the paper's own model (Y-net), not a baseline
 
 
+# Each model's name, for code about that one model (R-PECNet's roll-out, Y-net's own files); code
+# about several goes through the lists below.
+SGAN = "sgan"
+PECNET = "pecnet"
+RPECNET = "rpecnet"
+YNET = "ynet"
+
 PAPER_MODELS = (
-    PaperModel("sgan", "S-GAN", "#2ca02c", short_term=True, trains=True),
-    PaperModel("pecnet", "PECNet", "#1f77b4", short_term=True, trains=True),
-    PaperModel("rpecnet", "R-PECNet", "#9467bd", short_term=False, trains=False,
-               trained_as="pecnet"),
-    PaperModel("ynet", "Y-net", "#d62728", short_term=True, trains=False, ours=True),
+    PaperModel(SGAN, "S-GAN", "#2ca02c", short_term=True, trains=True),
+    PaperModel(PECNET, "PECNet", "#1f77b4", short_term=True, trains=True),
+    PaperModel(RPECNET, "R-PECNet", "#9467bd", short_term=False, trains=False,
+               trained_as=PECNET),
+    PaperModel(YNET, "Y-net", "#d62728", short_term=True, trains=False, ours=True),
 )
 BY_NAME = {model.name: model for model in PAPER_MODELS}
 PAPER_MODEL_NAMES = tuple(BY_NAME)

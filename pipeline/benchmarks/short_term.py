@@ -25,6 +25,7 @@ import pandas as pd
 from pipeline.benchmarks.base import Benchmark
 from pipeline.data.window_table import WindowArrays, conform, select_split, to_arrays
 from pipeline.io import IntermediateError
+from pipeline.model_list import YNET
 
 if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
     from pipeline.config.short_term_models import ShortTermModelsParams, YnetScale
@@ -124,7 +125,7 @@ class ShortTermBenchmark(Benchmark):
         return type(base)(**{
             **asdict(base), **asdict(self.ynet_scale(params)),
             **params.ynet_training.of(self.settings_key).overrides(),
-            "waypoints": [n_future - 1], "epochs": self.epochs(params, "ynet"),
+            "waypoints": [n_future - 1], "epochs": self.epochs(params, YNET),
             "semantic_classes": semantic_classes, "steps_per_epoch": params.ynet_steps_per_epoch})
 
     # -- windows -------------------------------------------------------------------------------

@@ -21,6 +21,8 @@ import numpy as np
 
 from pipeline.models import WindowSet
 
+NAME = Path(__file__).stem  # the contract names a model by its file: registry key, stages, files
+
 
 def extrapolate(past: np.ndarray, n_future: int) -> np.ndarray:
     """(N, n_p, 2) observed positions -> (N, n_future, 2): x_{t+s} = x_t + s (x_t - x_{t-1})."""

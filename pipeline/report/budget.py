@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pipeline.model_list import label
+from pipeline.model_list import YNET, label
 from pipeline.report.figures import _pyplot
 from pipeline.report.lookups import (YNET_MAIN, Measured, MetricsStore, dig, is_number,
                                      lookup_ynet_setting)
@@ -120,7 +120,8 @@ def paper_and_headline(benchmark: str, model: str, paper: Mapping[str, Any],
         column = next((c for c in paper["sdd_long"]["columns"] if c.get("dataset") == "sdd"
                        and c.get("model") == model and c.get("k_a") == 1), {})
         ours = {m: headline_value(lookup_ynet_setting(store, "ynet_eval.json", **YNET_MAIN, metric=m))
-                if model == "ynet" else dig(store.files.get(f"baselines/{model}_tf30.json"), m, "mean")
+                if model == YNET
+                else dig(store.files.get(f"baselines/{model}_tf30.json"), m, "mean")
                 for m in METRICS}
         return {m: column.get(m) for m in METRICS}, ours, "px"
     if benchmark == "sdd":

@@ -41,7 +41,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-from pipeline.model_list import label
+from pipeline.model_list import PECNET, RPECNET, YNET, label
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, dig, is_number,
                                      lookup, lookup_ynet_setting)
 from pipeline.report.short_term_seeds import ShortTermSeeds
@@ -416,22 +416,22 @@ def ynet_setting(store: MetricsStore, metric: str, ablation: str = "ttst_cws") -
     """Y-net at t_f = 30 s, K_e = 20, K_a = 1: the main setting (TTST + CWS, with its training
     seeds where the profile trains several) or an ablation (one seed)."""
     path = ("main", metric) if ablation == "ttst_cws" else ("ablation", ablation, metric)
-    spread = seed_spread(store, "ynet", LONG_TF, metric, MAIN) if ablation == "ttst_cws" else None
-    return term("ynet", lookup(store, YNET_FILE, path, t_f=LONG_TF), spread)
+    spread = seed_spread(store, YNET, LONG_TF, metric, MAIN) if ablation == "ttst_cws" else None
+    return term(YNET, lookup(store, YNET_FILE, path, t_f=LONG_TF), spread)
 
 
 def ynet_grid(store: MetricsStore, k_e: int, k_a: int, metric: str = "ade") -> Term | Absent:
-    spread = seed_spread(store, "ynet", LONG_TF, metric, {"k_e": k_e, "k_a": k_a})
+    spread = seed_spread(store, YNET, LONG_TF, metric, {"k_e": k_e, "k_a": k_a})
     value = lookup_ynet_setting(store, YNET_FILE, k_e, k_a, metric, t_f=LONG_TF)
-    return term("ynet", value, spread if (k_e, k_a) == (MAIN["k_e"], MAIN["k_a"]) else None)
+    return term(YNET, value, spread if (k_e, k_a) == (MAIN["k_e"], MAIN["k_a"]) else None)
 
 
 def ynet_horizon(store: MetricsStore, t_f: int, metric: str = "ade") -> Term | Absent:
     """Y-net at horizon `t_f`: the main model at 30 s, a horizon model elsewhere."""
     if t_f == LONG_TF:
         return ynet_setting(store, metric)
-    return term("ynet", lookup(store, f"ynet_horizons/tf{t_f}.json", ("main", metric), t_f=t_f),
-                seed_spread(store, "ynet", t_f, metric, MAIN))
+    return term(YNET, lookup(store, f"ynet_horizons/tf{t_f}.json", ("main", metric), t_f=t_f),
+                seed_spread(store, YNET, t_f, metric, MAIN))
 
 
 def baseline(store: MetricsStore, model: str, t_f: int, metric: str = "ade") -> Term | Absent:
@@ -453,15 +453,15 @@ def pecnet_ka(store: MetricsStore, metric: str = "ade") -> dict[int, tuple[Any, 
         if isinstance(row, dict) and is_number(row.get("k_a")):
             where = f"{store.where(rel)}: k_a = {row['k_a']}"
             value = as_measured(row.get(metric), row.get("rounds"), where)
-            spread = seed_spread(store, "pecnet", LONG_TF, metric, {"k": row.get("k")})
-            if isinstance(found_term := term("pecnet", value, spread), Term):
+            spread = seed_spread(store, PECNET, LONG_TF, metric, {"k": row.get("k")})
+            if isinstance(found_term := term(PECNET, value, spread), Term):
                 found[int(row["k_a"])] = (row.get("k"), found_term)
     return found
 
 
 def ind(store: MetricsStore, model: str, metric: str, ablation: str = "ttst_cws") -> Term | Absent:
     """inD at t_f = 30 s (ind_benchmark.json: Y-net as ynet_eval.json, baselines under `baselines`)."""
-    if model != "ynet":
+    if model != YNET:
         path = ("baselines", model, metric)
     else:
         path = ("main", metric) if ablation == "ttst_cws" else ("ablation", ablation, metric)
@@ -516,7 +516,7 @@ def other_models(store: MetricsStore, rel: str) -> list[str] | Absent:
     models = record.get("models") if isinstance(record, dict) else None
     if not isinstance(models, dict):
         return Absent(f"{store.where(rel)} has no models", "invalid")
-    return [m for m in models if m != "ynet"]
+    return [m for m in models if m != YNET]
 
 
 def horizons_measured(store: MetricsStore) -> list[int]:
@@ -553,13 +553,13 @@ def paper_ethucy(paper: Mapping, model: str) -> Mapping:
 def strongest_sdd_short(paper: Mapping, k: int, metric: str) -> Term:
     """Table 1's lowest error among the prior models at K = `k`, as quoted."""
     return strongest((c["label"], c[metric]) for c in paper["sdd_short"]["columns"]
-                     if c["k"] == k and c["model"] != "ynet")
+                     if c["k"] == k and c["model"] != YNET)
 
 
 def strongest_ethucy(paper: Mapping, metric: str) -> Term:
     """Table 2's lowest AVG error among the prior models, as quoted."""
     return strongest((e["label"], e[metric]["avg"]) for e in paper["eth_ucy"]["models"]
-                     if e["model"] != "ynet")
+                     if e["model"] != YNET)
 
 
 def strongest(entries: Iterable[tuple[str, float]]) -> Term:
@@ -578,18 +578,22 @@ def better_by(store: MetricsStore, paper: Mapping, dataset: str,
     def find(metric: str, model: str) -> Term | Absent:
         if dataset == "ind":
             return ind(store, model, metric)
-        return ynet_setting(store, metric) if model == "ynet" else baseline(store, model, LONG_TF, metric)
+        if model == YNET:
+            return ynet_setting(store, metric)
+        return baseline(store, model, LONG_TF, metric)
 
-    found = {m: (find(m, "pecnet"), find(m, "ynet")) for m in METRICS}
-    paper_lines = [versus(m.upper(), "PECNet", paper_long(paper, dataset, "pecnet", m), "Y-net",
-                          paper_long(paper, dataset, "ynet", m), "px", 2) for m in METRICS]
+    pecnet_label, ynet_label = label(PECNET), label(YNET)
+    found = {m: (find(m, PECNET), find(m, YNET)) for m in METRICS}
+    paper_lines = [versus(m.upper(), pecnet_label, paper_long(paper, dataset, PECNET, m),
+                          ynet_label, paper_long(paper, dataset, YNET, m), "px", 2)
+                   for m in METRICS]
     absent = first_absent(v for pair in found.values() for v in pair)
     if absent is not None:
         return not_measured(absent, paper=paper_lines)
-    ours = [versus(m.upper(), "PECNet", p.value, "Y-net", y.value, "px", 2)
+    ours = [versus(m.upper(), pecnet_label, p.value, ynet_label, y.value, "px", 2)
             for m, (p, y) in found.items()]
-    gains = [Gain(m.upper(), "PECNet", found[m][0], "Y-net", found[m][1], size or None, exact)
-             for m, size in over.items()]
+    gains = [Gain(m.upper(), pecnet_label, found[m][0], ynet_label, found[m][1], size or None,
+                  exact) for m, size in over.items()]
     return decide_gains(gains, "px", 2, ours, paper_lines)
 
 
@@ -611,11 +615,11 @@ def check_ind(store: MetricsStore, paper: Mapping,
 def check_horizon_gap(store: MetricsStore, paper: Mapping,
                       short_term: ShortTermSeeds | None = None) -> Outcome:
     """The ADE gap PECNet - Y-net grows at every step from one horizon to the next."""
-    gap = paper_long(paper, "sdd", "pecnet", "ade") - paper_long(paper, "sdd", "ynet", "ade")
+    gap = paper_long(paper, "sdd", PECNET, "ade") - paper_long(paper, "sdd", YNET, "ade")
     paper_lines = [f"Figure 4: a plot, no published numbers; Table 3 (30 s): PECNet \u2212 Y-net = "
                    f"{gap:.2f} px"]
     horizons = horizons_measured(store)
-    found = {h: (baseline(store, "pecnet", h), ynet_horizon(store, h)) for h in horizons}
+    found = {h: (baseline(store, PECNET, h), ynet_horizon(store, h)) for h in horizons}
     absent = first_absent(v for pair in found.values() for v in pair)
     if absent is not None:
         return not_measured(absent, paper=paper_lines)
@@ -634,11 +638,12 @@ def check_horizon_gap(store: MetricsStore, paper: Mapping,
 def check_recurrent(store: MetricsStore, paper: Mapping,
                     short_term: ShortTermSeeds | None = None) -> Outcome:
     """PECNet trained per horizon has a lower ADE than R-PECNet at every horizon beyond 5 s."""
-    paper_lines = [f"Table 3 (30 s) ADE, {name}: R-PECNet {paper_long(paper, d, 'rpecnet', 'ade'):.2f} "
-                   f"vs PECNet {paper_long(paper, d, 'pecnet', 'ade'):.2f} px"
+    paper_lines = [f"Table 3 (30 s) ADE, {name}: "
+                   f"R-PECNet {paper_long(paper, d, RPECNET, 'ade'):.2f} "
+                   f"vs PECNet {paper_long(paper, d, PECNET, 'ade'):.2f} px"
                    for d, name in (("sdd", "SDD"), ("ind", "inD"))]
     horizons = [h for h in horizons_measured(store) if h > RECURRENT_TF]
-    found = {h: (baseline(store, "rpecnet", h), baseline(store, "pecnet", h)) for h in horizons}
+    found = {h: (baseline(store, RPECNET, h), baseline(store, PECNET, h)) for h in horizons}
     absent = first_absent(v for pair in found.values() for v in pair)
     if absent is not None:
         return not_measured(absent, paper=paper_lines)
@@ -656,7 +661,7 @@ def ablation_gain(store: MetricsStore, paper: Mapping, dataset: str, without: st
     `claimed` size per metric."""
     def find(metric: str, ablation: str) -> Term | Absent:
         if dataset == "ind":
-            return ind(store, "ynet", metric, ablation)
+            return ind(store, YNET, metric, ablation)
         return ynet_setting(store, metric, ablation)
 
     def line(metric: str, before: float, after: float) -> str:
@@ -738,7 +743,7 @@ def check_ka(store: MetricsStore, paper: Mapping,
              short_term: ShortTermSeeds | None = None) -> Outcome:
     """At every K_e of the K_a grid, ADE falls at each step up in K_a."""
     ka = [(c["k_a"], c["ade"]) for c in paper["sdd_long"]["columns"]
-          if (c["dataset"], c["model"]) == ("sdd", "ynet")]
+          if (c["dataset"], c["model"]) == ("sdd", YNET)]
     paper_lines = [f"Table 3, SDD, K_e = {LONG_K}, ADE: " + " \u2192 ".join(f"{v:.2f}" for _, v in ka)
                    + f" px (K_a = {', '.join(str(k) for k, _ in ka)}); Figure 5: no published numbers"]
     record = store.record(YNET_FILE)
@@ -790,18 +795,20 @@ def check_pecnet_samples(store: MetricsStore, paper: Mapping,
 def check_sdd_short_pecnet(store: MetricsStore, paper: Mapping,
                            short_term: ShortTermSeeds | None = None) -> Outcome:
     """Short-term SDD, K = 20: PECNet's ADE and FDE exceed Y-net's by 26.8 % and 34.0 %."""
-    columns = {m: paper_column(paper, "sdd_short", model=m, k=20) for m in ("pecnet", "ynet")}
-    paper_lines = [versus(m.upper(), "PECNet", columns["pecnet"][m], "Y-net", columns["ynet"][m],
+    pecnet_label, ynet_label = label(PECNET), label(YNET)
+    columns = {m: paper_column(paper, "sdd_short", model=m, k=20) for m in (PECNET, YNET)}
+    paper_lines = [versus(m.upper(), pecnet_label, columns[PECNET][m], ynet_label, columns[YNET][m],
                           "px", 2) for m in METRICS]
-    found = {m: (short_sdd(store, "pecnet", 20, m, short_term), short_sdd(store, "ynet", 20, m, short_term))
-             for m in METRICS}
+    found = {m: (short_sdd(store, PECNET, 20, m, short_term),
+                 short_sdd(store, YNET, 20, m, short_term)) for m in METRICS}
     absent = first_absent(v for pair in found.values() for v in pair)
     if absent is not None:
         return not_measured(absent, paper=paper_lines)
-    ours = [versus(m.upper(), "PECNet", p.value, "Y-net", y.value, "px", 2)
+    ours = [versus(m.upper(), pecnet_label, p.value, ynet_label, y.value, "px", 2)
             for m, (p, y) in found.items()]
     claimed = {"ade": 0.268, "fde": 0.340}
-    gains = [Gain(m.upper(), "PECNet", p, "Y-net", y, claimed[m]) for m, (p, y) in found.items()]
+    gains = [Gain(m.upper(), pecnet_label, p, ynet_label, y, claimed[m])
+             for m, (p, y) in found.items()]
     return decide_gains(gains, "px", 2, ours, paper_lines)
 
 
@@ -835,8 +842,8 @@ def check_sdd_short_best(store: MetricsStore, paper: Mapping,
     strongest prior model of the paper's table (as quoted), at K = 20 and 5."""
     cols = paper["sdd_short"]["columns"]
     paper_lines = [f"K = {k} {m.upper()}: " + best_line(
-        ((c["label"], c[m]) for c in cols if c["k"] == k and c["model"] != "ynet"),
-        paper_column(paper, "sdd_short", model="ynet", k=k)[m], 2) for k in SHORT_K for m in METRICS]
+        ((c["label"], c[m]) for c in cols if c["k"] == k and c["model"] != YNET),
+        paper_column(paper, "sdd_short", model=YNET, k=k)[m], 2) for k in SHORT_K for m in METRICS]
     others = other_models(store, "short_term/sdd.json")
     if isinstance(others, Absent):
         return not_measured(others, paper=paper_lines)
@@ -844,7 +851,7 @@ def check_sdd_short_best(store: MetricsStore, paper: Mapping,
     for k in SHORT_K:
         for m in METRICS:
             column = f"K = {k} {m.upper()}"
-            ynet[column] = short_sdd(store, "ynet", k, m, short_term)
+            ynet[column] = short_sdd(store, YNET, k, m, short_term)
             by[column] = [short_sdd(store, o, k, m, short_term) for o in others]
             prior[column] = strongest_sdd_short(paper, k, m)
     absent = first_absent([*ynet.values(), *(t for terms in by.values() for t in terms)])
@@ -862,12 +869,12 @@ def check_ethucy_best(store: MetricsStore, paper: Mapping,
     we run and below the strongest prior model of the paper's table (as quoted)."""
     entries = paper["eth_ucy"]["models"]
     paper_lines = [f"AVG {m.upper()}: " + best_line(
-        ((e["label"], e[m]["avg"]) for e in entries if e["model"] != "ynet"),
-        paper_ethucy(paper, "ynet")[m]["avg"], 2) for m in METRICS]
+        ((e["label"], e[m]["avg"]) for e in entries if e["model"] != YNET),
+        paper_ethucy(paper, YNET)[m]["avg"], 2) for m in METRICS]
     others = other_models(store, f"short_term/ethucy_{ETHUCY_SCENES[0]}.json")
     if isinstance(others, Absent):
         return not_measured(others, paper=paper_lines)
-    ynet = {f"AVG {m.upper()}": ethucy_avg(store, "ynet", m, short_term) for m in METRICS}
+    ynet = {f"AVG {m.upper()}": ethucy_avg(store, YNET, m, short_term) for m in METRICS}
     by = {f"AVG {m.upper()}": [ethucy_avg(store, o, m, short_term) for o in others] for m in METRICS}
     prior = {f"AVG {m.upper()}": strongest_ethucy(paper, m) for m in METRICS}
     absent = first_absent([*ynet.values(), *(t for terms in by.values() for t in terms)])
@@ -883,18 +890,19 @@ def check_trajectron(store: MetricsStore, paper: Mapping,
                      short_term: ShortTermSeeds | None = None) -> Outcome:
     """Trajectron++'s AVG errors, as the paper quotes them (this pipeline does not run it), exceed
     our Y-net's by about 5.6 % (ADE) and 51.9 % (FDE)."""
-    t, y = paper_ethucy(paper, "trajectronpp"), paper_ethucy(paper, "ynet")
-    paper_lines = [versus(f"AVG {m.upper()}", "Trajectron++", t[m]["avg"], "Y-net", y[m]["avg"],
+    ynet_label = label(YNET)
+    t, y = paper_ethucy(paper, "trajectronpp"), paper_ethucy(paper, YNET)
+    paper_lines = [versus(f"AVG {m.upper()}", "Trajectron++", t[m]["avg"], ynet_label, y[m]["avg"],
                           "m", 2) for m in METRICS]
-    found = {m: ethucy_avg(store, "ynet", m, short_term) for m in METRICS}
+    found = {m: ethucy_avg(store, YNET, m, short_term) for m in METRICS}
     absent = first_absent(found.values())
     if absent is not None:
         return not_measured(absent, paper=paper_lines)
-    ours = [versus(f"AVG {m.upper()}", "Trajectron++ (quoted)", t[m]["avg"], "Y-net", v.value, "m", 3)
-            for m, v in found.items()]
+    ours = [versus(f"AVG {m.upper()}", "Trajectron++ (quoted)", t[m]["avg"], ynet_label, v.value,
+                   "m", 3) for m, v in found.items()]
     claimed = {"ade": 0.056, "fde": 0.519}
     gains = [Gain(f"AVG {m.upper()}", "Trajectron++* (paper, quoted)", quoted("Trajectron++*", t[m]["avg"]),
-                  "Y-net", v, claimed[m]) for m, v in found.items()]
+                  ynet_label, v, claimed[m]) for m, v in found.items()]
     return decide_gains(gains, "m", 3, ours, paper_lines,
                         "Trajectron++ is not run here: its numbers are the paper's, quoted")
 

@@ -13,9 +13,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from pipeline.model_list import PECNET
+
 SELECTIONS = ("validation", "test")
 PROTOCOL_LABELS = {"headline": "ours (min ADE, min FDE)",
-                   "pecnet": "PECNet's (ADE of the best endpoint, min FDE)"}
+                   PECNET: "PECNet's (ADE of the best endpoint, min FDE)"}
 
 
 def gap_share(ours: float | None, compat: float | None, paper: float | None) -> float | None:

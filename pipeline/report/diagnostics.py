@@ -20,7 +20,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from pipeline.model_list import PAPER_MODELS
+from pipeline.model_list import BY_NAME, PAPER_MODELS, RPECNET
 from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, dig, is_number
 
 TITLE = "Table 3 bracketed: diagnostics"
@@ -31,7 +31,7 @@ ROLLOUTS_FILE = "rpecnet_rollouts.json"
 MODELS = tuple((model.name, model.label) for model in PAPER_MODELS)  # the page adds the registered
 HEADLINE, ONE_SAMPLE, DIAGNOSTIC = ("K = 20 (headline)", "K = 1 (one sample)",
                                     "diagnostic, not the headline")
-ROLLOUT_MODEL = "rpecnet"
+ROLLOUT_MODEL = RPECNET
 
 
 @dataclass(frozen=True)
@@ -150,8 +150,9 @@ def table3_diagnostics(long_term: Any, rollouts: Any, t_f: int = 30,
                 for key, label in models for setting in (HEADLINE, ONE_SAMPLE)]
     else:
         rows = long_term_rows(lt, t_f, models, long_term_source)
-    diagnostic = rollout_row(usable(rollouts, rollouts_source, "horizons"), t_f,
-                             names.get(ROLLOUT_MODEL, "R-PECNet"), rollouts_source)
+    rollout_label = names.get(ROLLOUT_MODEL, BY_NAME[ROLLOUT_MODEL].label)
+    diagnostic = rollout_row(usable(rollouts, rollouts_source, "horizons"), t_f, rollout_label,
+                             rollouts_source)
     at = [i for i, r in enumerate(rows) if r.model == ROLLOUT_MODEL and r.table == f"tf{t_f}"]
     position = at[-1] + 1 if at else len(rows)
     return rows[:position] + [diagnostic] + rows[position:]

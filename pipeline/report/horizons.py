@@ -22,10 +22,12 @@ from pathlib import Path
 from typing import Any
 
 from pipeline.io import write_with
+from pipeline.model_list import YNET
 from pipeline.models import ShownModel
+from pipeline.models.constant_velocity import NAME as CONSTANT_VELOCITY
 from pipeline.report.lookups import dig
 
-SUBJECT = "ynet"
+SUBJECT = YNET
 RELEASE_HORIZON = 30  # s: the authors' released windows' horizon, the main Y-net's
 FIGURES = {"curves": "curves.png", "model": "model.png"}
 
@@ -51,8 +53,8 @@ def horizon_rows(record: Mapping[str, Any]) -> list[dict[str, Any]]:
             "release": (dig(row, "data", "sources") or {}).get("release", 0),
             "median_speed_px_s": dig(row, "data", "speed_px_s", "median"),
             "standing_share": dig(row, "data", "standing_share"),
-            "cv_ade": dig(models, "constant_velocity", "ade"),
-            "cv_fde": dig(models, "constant_velocity", "fde"),
+            "cv_ade": dig(models, CONSTANT_VELOCITY, "ade"),
+            "cv_fde": dig(models, CONSTANT_VELOCITY, "fde"),
             "straight_to_goal_ade": dig(row, "straight_to_goal", "ade"),
             "ynet_ade": dig(models, SUBJECT, "ade"),
             "ynet_fde": dig(models, SUBJECT, "fde"),

@@ -29,6 +29,7 @@ from typing import Any
 
 import yaml
 
+from pipeline.model_list import PECNET, YNET
 from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, dig, is_number
 
 METRICS = ("ade", "fde")
@@ -63,8 +64,8 @@ SEED_SPREAD_FILE = "baseline_seed_spread.json"
 # Upstream PECNet's test-set epoch selection, retrained per ETH/UCY fold (a compat diagnostic).
 TEST_SELECTION_FILE = "short_term/pecnet_test_selection/{benchmark}.json"
 LONG_TERM_TEST_SELECTION_FILE = "pecnet_test_selection.json"
-TEST_SELECTED_MODELS = ("pecnet",)
-TEST_SELECTION_PROTOCOLS = {"pecnet_best_endpoint": "pecnet", "independent_min": "headline"}
+TEST_SELECTED_MODELS = (PECNET,)
+TEST_SELECTION_PROTOCOLS = {"pecnet_best_endpoint": PECNET, "independent_min": "headline"}
 
 
 class PaperValuesError(ValueError):
@@ -285,7 +286,7 @@ def long_term_score(store: MetricsStore, dataset: str, model: str, k_a: int, key
         return Absent("scored at K_a = 1 only", "missing")
     if dataset == "ind":
         return stored_score(store, IND_SCORES, ("benchmarks", "ind", "models", model), key)
-    table = f"release_tf{t_f}" if model == "ynet" else f"tf{t_f}"
+    table = f"release_tf{t_f}" if model == YNET else f"tf{t_f}"
     return stored_score(store, LONG_TERM_SCORES, ("tables", table, "models", model), key)
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from pipeline.model_list import label
+from pipeline.model_list import YNET, label
 from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, is_number
 from pipeline.report.provenance import SEED_SPREAD_FILE
 
@@ -67,7 +67,7 @@ def seed_spread_section(store: MetricsStore) -> dict[str, Any]:
                        and isinstance(e.get("evaluation"), dict)
                        and {"split", "k", "rounds", "seed"} <= set(e["evaluation"])), {})
     ynet_evaluation = next((e["evaluation"] for e in record["entries"] if isinstance(e, dict)
-                            and e.get("model") == "ynet" and isinstance(e.get("evaluation"), dict)
+                            and e.get("model") == YNET and isinstance(e.get("evaluation"), dict)
                             and {"k_e", "k_a", "rounds"} <= set(e["evaluation"])), {})
     return {**none, "rows": [row for row in found if isinstance(row, SeedSpreadRow)],
             "problems": [row.reason for row in found if isinstance(row, Absent)],

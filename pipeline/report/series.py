@@ -10,6 +10,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from pipeline.model_list import PECNET, YNET, label
 from pipeline.report.common import HORIZON_MODELS, LONG_TERM_TF
 from pipeline.report.compat import compat_rows
 from pipeline.report.diagnostics import HEADLINE, TITLE as DIAGNOSTICS_TITLE, diagnostics_from_store
@@ -40,7 +41,7 @@ def horizon_series(store: MetricsStore, horizons: Iterable[int],
     for key, label in models:
         found = []
         for h in horizons:
-            if key == "ynet":  # the main Y-net is the t_f = 30 point
+            if key == YNET:  # the main Y-net is the t_f = 30 point
                 rel = "ynet_eval.json" if h == LONG_TERM_TF else f"ynet_horizons/tf{h}.json"
                 found.append((h, lookup(store, rel, ("main", "ade"), t_f=h)))
             else:
@@ -62,24 +63,24 @@ def ynet_ka_series(store: MetricsStore) -> list[Series]:
     if isinstance(record, Absent) or not isinstance(grid, list):
         why = (record if isinstance(record, Absent)
                else Absent(f"{store.where(rel)} has no ka_grid", "invalid"))
-        return [Series("ynet", "Y-net", (), ((None, why),))]
+        return [Series(YNET, label(YNET), (), ((None, why),))]
     rows = [row for row in grid
             if isinstance(row, dict) and is_number(row.get("k_e")) and is_number(row.get("k_a"))]
     out = []
     for k_e in sorted({row["k_e"] for row in rows}):
         k_as = sorted({row["k_a"] for row in rows if row["k_e"] == k_e})
         found = [(k_a, lookup_ynet_setting(store, rel, k_e, k_a, "ade")) for k_a in k_as]
-        out.append(split_points(f"ynet_ke{k_e}", f"Y-net K_e = {k_e}", found))
+        out.append(split_points(f"{YNET}_ke{k_e}", f"{label(YNET)} K_e = {k_e}", found))
     return out
 
 
 def pecnet_ka_series(store: MetricsStore) -> Series:
     """PECNet's ADE per K_a from `baselines/pecnet_ka.json` (a list), noting a K other than 20 K_a."""
-    rel, key, label = "baselines/pecnet_ka.json", "pecnet_k20ka", "PECNet, K = 20 K_a"
+    rel, key, shown = "baselines/pecnet_ka.json", f"{PECNET}_k20ka", f"{label(PECNET)}, K = 20 K_a"
     record = store.record(rel)
     if not isinstance(record, list):
         why = record if isinstance(record, Absent) else Absent(f"{store.where(rel)} is not a list", "invalid")
-        return Series(key, label, (), ((None, why),))
+        return Series(key, shown, (), ((None, why),))
     found = []
     for row in record:
         if isinstance(row, dict) and is_number(row.get("k_a")):
@@ -87,7 +88,7 @@ def pecnet_ka_series(store: MetricsStore) -> Series:
             source = f"{store.where(rel)}: k_a = {row['k_a']}"
             value = as_measured(row.get("ade"), row.get("rounds"), source, note)
             found.append((int(row["k_a"]), value))
-    return split_points(key, label, sorted(found, key=lambda p: p[0]))
+    return split_points(key, shown, sorted(found, key=lambda p: p[0]))
 
 
 def paper_long_term_points(paper: Mapping) -> dict[str, float]:
@@ -114,7 +115,7 @@ def diagnostics_section(store: MetricsStore, paper: Mapping,
     return {"title": DIAGNOSTICS_TITLE, "t_f": LONG_TERM_TF, "paper": cells, "headline": HEADLINE,
             "rows": diagnostics_from_store(store, LONG_TERM_TF, tuple(models)),
             "compat": compat_rows(None if isinstance(selection, Absent) else selection,
-                                  {LONG_TERM_TF: cells["pecnet"]} if "pecnet" in cells else None),
+                                  {LONG_TERM_TF: cells[PECNET]} if PECNET in cells else None),
             "compat_absent": selection if isinstance(selection, Absent) else None,
             "compat_source": store.where("pecnet_test_selection.json")}
 
@@ -122,7 +123,7 @@ def diagnostics_section(store: MetricsStore, paper: Mapping,
 def paper_ka_points(paper: Mapping) -> list[tuple[int, float]]:
     """Table 3's SDD Y-net ADE at K_e = 20 for each K_a."""
     return [(c["k_a"], c["ade"]) for c in paper["sdd_long"]["columns"]
-            if c["dataset"] == "sdd" and c["model"] == "ynet"]
+            if c["dataset"] == "sdd" and c["model"] == YNET]
 
 
 def plot_rows(series: list[Series], x_name: str) -> list[dict[str, float]]:

@@ -12,13 +12,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from pipeline.model_list import SHORT_TERM_MODELS
 from pipeline.report.lookups import MetricsStore, dig, is_number
 
 HEADLINE_RUN = "short_term/runs/{dataset}_{model}.json"  # in the metrics store
 HEADLINE_CPU = "not recorded in its metrics"
 STUDY_RUN = "{dataset}_{model}_seed{seed}.json"  # in the studies store
 ETHUCY_FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
-SEEDED_MODELS = ("sgan", "pecnet", "ynet")
+SEEDED_MODELS = SHORT_TERM_MODELS  # the study trains each of them with several seeds
 
 
 @dataclass(frozen=True)

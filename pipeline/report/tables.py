@@ -13,6 +13,7 @@ from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
+from pipeline.model_list import YNET
 from pipeline.models import ModelEntry
 from pipeline.report.common import (DATASETS, LONG_TERM_KE, LONG_TERM_TF, METRICS, PIPELINE_MODELS,
                                     relative_difference)
@@ -290,7 +291,7 @@ def find_long_term(store: MetricsStore, c: Mapping, metric: str,
                    profile: str | None = None) -> Measured | Absent:
     """Table 3's cell: baselines from their t_f = 30 file (SDD) or ind_benchmark.json, Y-net by K_a."""
     model, k_a, rel = c["model"], c["k_a"], long_term_file(c["dataset"])
-    if model != "ynet":
+    if model != YNET:
         if c["dataset"] == "sdd":
             return lookup(store, f"baselines/{model}_tf{LONG_TERM_TF}.json", (metric,),
                           t_f=LONG_TERM_TF, expect={"k": LONG_TERM_KE})
@@ -373,7 +374,7 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams,
             ours = lookup(store, rel, ("ablation", name, metric), t_f=LONG_TERM_TF, expect=setting)
             joint = lookup(store, rel, ("ablation", name, f"{metric}_joint"), t_f=LONG_TERM_TF,
                            expect=setting)
-            seeds = (seed_range(store, "ynet", LONG_TERM_TF, metric)  # seeds: the main setting's
+            seeds = (seed_range(store, YNET, LONG_TERM_TF, metric)  # seeds: the main setting's
                      if (c["dataset"], name) == ("sdd", "ttst_cws") else None)
             cells.append(paper_cell(c[metric], ours, params, c["cells"][metric],
                                     f"{DATASETS[c['dataset']]} {name} {metric.upper()}",
@@ -467,7 +468,7 @@ def headline_metrics(tables: Iterable[Table], horizons: Iterable[Series]) -> dic
                     name = f"{folder}/{slug(column.group)}_avg.json"
                     files.setdefault(name, {})[column.label.lower()] = cell.ours.mean
     for series in horizons:
-        if series.key == "ynet":
+        if series.key == YNET:
             for t_f, value in series.points:
-                files[f"figure4_horizons/ynet_tf{t_f}.json"] = {"ade": value.mean}
+                files[f"figure4_horizons/{YNET}_tf{t_f}.json"] = {"ade": value.mean}
     return files

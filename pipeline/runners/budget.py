@@ -31,11 +31,11 @@ from typing import Any
 from pipeline.benchmarks.registry import short_term
 from pipeline.checkpoints import read
 from pipeline.config.loading import active_profile
-from pipeline.model_list import TRAINED_BASELINES
+from pipeline.model_list import TRAINED_BASELINES, YNET
 from pipeline.runners.studies import dotted, run_stage, scratch_params, short_term_commands
 
 BASELINE_KINDS = {"long_term_baseline": TRAINED_BASELINES, "short_term_baseline": TRAINED_BASELINES}
-YNET_KINDS = {"short_term_ynet": ("ynet",), "long_term_ynet": ("ynet",)}
+YNET_KINDS = {"short_term_ynet": (YNET,), "long_term_ynet": (YNET,)}
 
 
 @dataclass(frozen=True)

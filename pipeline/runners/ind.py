@@ -50,8 +50,8 @@ from pipeline.runners.baselines.rpecnet import RecurrentPecnet
 from pipeline.harness.model_runs import score_rounds, split_to_score
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import atomic_dir, check_array, read_npz, write_npz
-from pipeline.model_list import BASELINES, OURS, TRAINED_BASELINES
-from pipeline.models.constant_velocity import ConstantVelocity
+from pipeline.model_list import BASELINES, BY_NAME, OURS, RPECNET, TRAINED_BASELINES, YNET
+from pipeline.models.constant_velocity import NAME as CONSTANT_VELOCITY, ConstantVelocity
 from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.segmentation import (downsample_pair, epoch_batches, export_model, learning_rate,
                                            pad_to_multiple, scaled_size, train_step)
@@ -73,7 +73,7 @@ if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it read
 
 
 MAPS = "segmentation/maps.npz"  # in the checkpoint folder: the maps Y-net trained on, for scoring
-REFERENCE = "constant_velocity"  # the registered model inD scores beside the paper's
+REFERENCE = CONSTANT_VELOCITY  # the registered model inD scores beside the paper's
 BASELINE_MODELS = (*BASELINES, REFERENCE)
 IND_MODELS = (OURS, *BASELINE_MODELS)  # one stored predictions file each
 
@@ -287,7 +287,7 @@ def score_ynet(test: WindowArrays, maps: dict[str, np.ndarray], sizes: dict[str,
 def baseline_dirs(checkpoint_dir: Path, horizon: int, base_horizon: int) -> dict[str, Path]:
     """baseline -> its checkpoint folder (R-PECNet: the PECNet of the base horizon)."""
     dirs = {model: checkpoint_dir / f"{model}_tf{horizon}" for model in TRAINED_BASELINES}
-    return {**dirs, "rpecnet": checkpoint_dir / f"pecnet_tf{base_horizon}"}
+    return {**dirs, RPECNET: checkpoint_dir / f"{BY_NAME[RPECNET].trained_as}_tf{base_horizon}"}
 
 
 def train_baselines(long: WindowArrays, base: WindowArrays, settings: IndTrainSettings,
@@ -302,8 +302,9 @@ def train_baselines(long: WindowArrays, base: WindowArrays, settings: IndTrainSe
     for model in TRAINED_BASELINES:
         facts[model] = baseline_runs.train(model, long, settings.baseline_configs[model], dirs[model],
                                            seed, device, preemption)
-    facts["rpecnet"] = baseline_runs.train("pecnet", base, settings.baseline_configs["pecnet"],
-                                           dirs["rpecnet"], seed, device, preemption)
+    base_model = BY_NAME[RPECNET].trained_as
+    facts[RPECNET] = baseline_runs.train(base_model, base, settings.baseline_configs[base_model],
+                                         dirs[RPECNET], seed, device, preemption)
     return facts
 
 
@@ -404,12 +405,12 @@ def train_benchmark(ind_dir: Path, segmentation_model: Path, checkpoint_dir: Pat
     maps, semantic = semantic_maps(ind_dir, index, segmentation_model, settings,
                                    checkpoint_dir / "segmentation", device)
     write_npz(checkpoint_dir / MAPS, maps)
-    ynet = train_ynet(data.splits, maps, data.sizes, settings, index["n_past"], checkpoint_dir / "ynet",
-                      device, preemption)
+    ynet = train_ynet(data.splits, maps, data.sizes, settings, index["n_past"],
+                      checkpoint_dir / YNET, device, preemption)
     trained = train_baselines(data.long, data.base, settings, checkpoint_dir, device, preemption)
     return {"provided": True, "status": "ok", "profile": settings.profile,
             "t_f": int(index["horizon"]), "windows": {s: len(a) for s, a in data.splits.items()},
-            "semantic": semantic, "ynet": ynet, "baselines": trained,
+            "semantic": semantic, YNET: ynet, "baselines": trained,
             "seconds": time.perf_counter() - start}
 
 
@@ -426,15 +427,15 @@ def evaluate_benchmark(ind_dir: Path, checkpoint_dir: Path, trained: dict, setti
     start = time.perf_counter()
     maps = read_maps(checkpoint_dir, index, ind_dir)
     ynet_rounds = PredictionRounds(data.splits["test"].window_id)
-    ynet = score_ynet(data.splits["test"], maps, data.sizes, settings, checkpoint_dir / "ynet",
+    ynet = score_ynet(data.splits["test"], maps, data.sizes, settings, checkpoint_dir / YNET,
                       device, ynet_rounds)
     scores, kept = score_baselines(data.long, data.base, settings, checkpoint_dir, device)
     table = Path(ind_dir) / index["tables"][str(index["horizon"])]
     options = sampling_options(settings.eval.k_e, settings.eval.k_a, settings.ttst, settings.cws,
                                True, True)
-    predictions = {"ynet": (ynet_rounds, IND.prediction_metadata(
-        "ynet", table, k=options.K, k_e=options.K_e, k_a=options.K_a,
-        sampling=dataclasses.asdict(options), checkpoint=str(checkpoint_dir / "ynet" / "best.pt")))}
+    predictions = {YNET: (ynet_rounds, IND.prediction_metadata(
+        YNET, table, k=options.K, k_e=options.K_e, k_a=options.K_a,
+        sampling=dataclasses.asdict(options), checkpoint=str(checkpoint_dir / YNET / "best.pt")))}
     dirs = baseline_dirs(checkpoint_dir, data.long.future.shape[1], data.base.future.shape[1])
     for model, rounds in kept.items():
         predictions[model] = (rounds, IND.prediction_metadata(
@@ -444,7 +445,7 @@ def evaluate_benchmark(ind_dir: Path, checkpoint_dir: Path, trained: dict, setti
         "provided": True, "status": "ok", "profile": settings.profile,
         "t_f": int(index["horizon"]), "k_e": settings.eval.k_e,
         "windows": {split: len(arrays) for split, arrays in data.splits.items()},
-        **ynet, "train": trained["ynet"],
+        **ynet, "train": trained[YNET],
         "semantic": trained["semantic"],
         "baselines": scores,
         "seconds": trained["seconds"] + time.perf_counter() - start,

@@ -37,6 +37,7 @@ from pipeline.data.ynet_data import SceneWindows, group_by_scene, window_inputs
 from pipeline.device import CPU, conv_layout, generator, module_device, use_bf16
 from pipeline.harness.metrics import METRIC_KEYS, rounds_record, seeded_rounds, window_errors
 from pipeline.harness.predictions import PredictionRounds
+from pipeline.model_list import YNET
 from ynet.heatmaps import distance_maps
 from ynet.model import YNet, YNetConfig
 from ynet.sampling import (Encoded, SamplingOptions, draw_goals, encode, encoder_features,
@@ -270,7 +271,7 @@ def prediction_metadata(table: Path, options: SamplingOptions | None = None,
     """What a stored long-term SDD Y-net predictions file records besides its seeds: the model, the
     benchmark of the window table scored, the unit and split, and, where it was scored, the
     sampling options (K = K_e x K_a) and the checkpoint."""
-    metadata = SDD_LONG_TERM.prediction_metadata("ynet", table)
+    metadata = SDD_LONG_TERM.prediction_metadata(YNET, table)
     if options is not None:
         metadata.update(k=options.K, k_e=options.K_e, k_a=options.K_a,
                         sampling=asdict(options), checkpoint=str(checkpoint))

@@ -28,6 +28,7 @@ from pipeline.runners import baselines
 from pipeline.runners.baseline_runs import ka_rows
 from pipeline.harness.model_runs import split_to_score
 from pipeline.io import write_json
+from pipeline.model_list import PECNET
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -46,7 +47,7 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(runtime.device, purpose=SCORING)
     print(f"evaluate_pecnet_ka: {describe(device)}", flush=True)
 
-    pecnet = baselines.Baseline("pecnet", device=device, selection=params.epoch_selection)
+    pecnet = baselines.Baseline(PECNET, device=device, selection=params.epoch_selection)
     test, truth = split_to_score(load_windows(args.table, n_past, args.horizon), params.split)
     if len(test) == 0:
         raise ValueError(f"{args.table}: no {params.split} windows")

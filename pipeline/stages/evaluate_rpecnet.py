@@ -17,9 +17,10 @@ from pipeline.config.evaluate_baseline import EvaluateBaselineParams
 from pipeline.config.loading import load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.windows import WindowParams
+from pipeline.model_list import RPECNET
 from pipeline.runners.baseline_runs import score_to_file
 
-MODEL = "rpecnet"
+MODEL = RPECNET
 
 
 def main(argv: list[str] | None = None) -> None:

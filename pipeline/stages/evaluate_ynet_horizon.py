@@ -31,6 +31,7 @@ from pipeline.config.runtime import RuntimeParams
 from pipeline.config.windows import WindowParams
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json
+from pipeline.model_list import YNET
 from pipeline.runners.ynet_horizon import horizon_splits, training_summary
 from pipeline.runners.slot_scoring import SlotScoring, check_agrees, horizon_slot, read_slot_scoring
 
@@ -53,7 +54,7 @@ def main(argv: list[str] | None = None) -> None:
     scoring = read_slot_scoring(args.scoring, horizon_slot(args.horizon))
     check_agrees(scoring, trained["trained"], args.scoring, args.train_metrics)
     if scoring is None:
-        write_no_predictions(args.predictions, SDD_LONG_TERM.prediction_metadata("ynet", args.table),
+        write_no_predictions(args.predictions, SDD_LONG_TERM.prediction_metadata(YNET, args.table),
                              trained["not_run_reason"])
         write_json(trained, args.metrics)
         print(f"evaluate_ynet_horizon: t_f = {args.horizon} s was not trained: "

@@ -31,27 +31,25 @@ from pathlib import Path
 from pipeline.config.loading import active_profile, read_params
 from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.io import write_json
-from pipeline.model_list import TRAINED_BASELINES
+from pipeline.model_list import SHORT_TERM_MODELS, YNET
 from pipeline.report.run_provenance import machine
 from pipeline.runners.studies import run_stage, scratch_params, short_term_commands
 
-MODELS = (*TRAINED_BASELINES, "ynet")
-
 
 def seed_key(model: str, profile: str) -> str:
-    return f"ynet.{profile}.seed" if model == "ynet" else "train_baseline.seed"
+    return f"ynet.{profile}.seed" if model == YNET else "train_baseline.seed"
 
 
 def stage_commands(args: argparse.Namespace, scratch: Path) -> list[tuple[str, list[str]]]:
     """(stage, arguments) of the training, then the scoring, every path absolute."""
-    ynet_inputs = (args.maps, args.sdd, args.ethucy_scenes) if args.model == "ynet" else None
+    ynet_inputs = (args.maps, args.sdd, args.ethucy_scenes) if args.model == YNET else None
     return short_term_commands(args.model, args.dataset, args.windows, scratch, ynet_inputs)
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
-    parser.add_argument("--model", required=True, choices=MODELS)
+    parser.add_argument("--model", required=True, choices=SHORT_TERM_MODELS)
     parser.add_argument("--seed", type=int, required=True, help="training seed")
     parser.add_argument("--windows", type=Path, required=True, help="short_term_windows' folder")
     parser.add_argument("--maps", type=Path, help="Y-net: its scene maps (as train_short_term_ynet)")
@@ -61,7 +59,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="checkpoints and predictions (kept for resuming; not an output)")
     parser.add_argument("--result", type=Path, required=True, help="the run's record (JSON)")
     args = parser.parse_args(argv)
-    if args.model == "ynet" and None in (args.maps, args.sdd, args.ethucy_scenes):
+    if args.model == YNET and None in (args.maps, args.sdd, args.ethucy_scenes):
         parser.error("Y-net needs --maps, --sdd and --ethucy-scenes")
     params = read_params()
     scratch = scratch_params(args.scratch.resolve(), params,

@@ -30,10 +30,11 @@ from pipeline.config.ynet import YnetSettings
 from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
+from pipeline.model_list import YNET
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.runners.short_term import not_run_record, train_ynet, training_record, ynet_maps
 
-MODEL = "ynet"
+MODEL = YNET
 
 
 @exit_when_stopped

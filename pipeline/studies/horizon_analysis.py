@@ -40,6 +40,7 @@ import pandas as pd
 from pipeline.data.window_table import WindowArrays, to_arrays
 from pipeline.harness.metrics import window_errors
 from pipeline.harness.predictions import NOT_RUN, PredictionArrays, read_prediction_rounds
+from pipeline.model_list import YNET
 
 STANDING_NET_PX = 50.0
 """A walker stands still when its final position is less than this far (pixels, about 1.5-2 m at
@@ -47,7 +48,7 @@ SDD's 0.03-0.04 m per pixel) from its last observed one, whatever the horizon.""
 SLOW_SPEED_PX_S = 5.0
 """A walker is slow when its future path length over t_f is below this (pixels per second, about
 0.2 m/s; walking is about 30-40 px/s)."""
-SUBJECT = "ynet"
+SUBJECT = YNET
 """The model whose curve is in question: its per-window errors and its own horizon models."""
 TEST = "test"
 TRAIN_VAL = ("train", "val")

@@ -39,6 +39,7 @@ from pipeline.device import CPU, TRAINING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.harness import epoch_selection
 from pipeline.data.window_table import select_split
+from pipeline.model_list import PECNET
 from pipeline.runners.baselines.pecnet import Pecnet
 from pipeline.harness.scoring import best_endpoint_ade, min_ade_fde
 
@@ -50,7 +51,7 @@ if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeli
 
 PROTOCOLS = {
     "headline": "ours: min over K of ADE and, independently, min over K of FDE per window",
-    "pecnet": "upstream PECNet's test code: ADE of the sample with the best endpoint; min FDE",
+    PECNET: "upstream PECNet's test code: ADE of the sample with the best endpoint; min FDE",
 }
 METRICS = ("ade", "fde")
 LABEL = ("compat diagnostic: upstream selects epochs on the TEST set (best test ADE and best test "
@@ -78,7 +79,7 @@ def epoch_test_scores(pred: Any, truth: Any) -> dict[str, dict[str, float]]:
     independent = min_ade_fde(pred, truth)  # (N,) each
     fde = float(independent["fde"].mean())
     return {"headline": {"ade": float(independent["ade"].mean()), "fde": fde},
-            "pecnet": {"ade": float(best_endpoint_ade(pred, truth).mean()), "fde": fde}}
+            PECNET: {"ade": float(best_endpoint_ade(pred, truth).mean()), "fde": fde}}
 
 
 def summary_line(kept: Mapping[str, Any], compat: Mapping[str, Any], protocol: str,
@@ -251,7 +252,7 @@ def diagnose(settings: DiagnosticSettings, tables: Sequence[Path], training_fact
         print(f"pecnet_test_selection t_f = {horizon}: {describe(device)}", flush=True)
         per_horizon[f"tf{horizon}"] = horizon_record(horizon, table_of[horizon], facts_of[horizon],
                                                      settings, folder, device)
-    return {"diagnostic": LABEL, "model": "pecnet", "profile": settings.profile,
+    return {"diagnostic": LABEL, "model": PECNET, "profile": settings.profile,
             "seed": training.seed, "threads": training.threads, "device": describe(device),
             "k": diagnostic.k, "test_seed": diagnostic.seed, "protocols": dict(PROTOCOLS),
             "per_horizon": per_horizon, "wall_seconds": time.perf_counter() - t0}

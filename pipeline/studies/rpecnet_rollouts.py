@@ -32,6 +32,7 @@ from pipeline.data.window_table import WindowArrays, load_windows
 from pipeline.device import SCORING, describe, select_device
 from pipeline.device import generator as seeded_generator
 from pipeline.data.window_table import select_split
+from pipeline.model_list import RPECNET
 from pipeline.runners.baselines.rpecnet import VARIANTS, RecurrentPecnet
 from pipeline.harness.scoring import min_ade_fde
 
@@ -39,7 +40,7 @@ if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it read
     from pipeline.config.rpecnet_rollouts import RpecnetRolloutsParams
     from pipeline.config.runtime import RuntimeParams
 
-MODEL = "rpecnet"
+MODEL = RPECNET
 
 
 def check_variants(names: Sequence[str]) -> list[str]:

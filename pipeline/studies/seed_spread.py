@@ -33,7 +33,7 @@ from typing import Any, TYPE_CHECKING
 
 from pipeline.harness.metrics import METRIC_KEYS, summarize_rounds
 from pipeline.io import IntermediateError, index_value, read_json_index
-from pipeline.model_list import BY_NAME, SEEDED_BASELINES
+from pipeline.model_list import BY_NAME, SEEDED_BASELINES, YNET
 
 if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
     from pipeline.config.ynet_seeds import YnetSeedsParams
@@ -206,7 +206,7 @@ def ynet_entry(folder: Path, spec: YnetSeeds) -> dict[str, Any]:
     it (seeds, evaluation, main_round_std, per_seed) with "not_run_reason" in place of
     "over_training_seeds"."""
     seeds = read_ynet_seeds(folder, spec)
-    entry = spread_entry("ynet", YNET_HORIZON, seeds, spec.main_seed, YNET_EVALUATION_KEYS)
+    entry = spread_entry(YNET, YNET_HORIZON, seeds, spec.main_seed, YNET_EVALUATION_KEYS)
     if spec.params.seeds:
         return entry
     del entry["over_training_seeds"]  # one seed: no spread over training seeds
@@ -224,7 +224,7 @@ def seed_spread(folder: Path, horizons: list[int], extra: list[int],
         for horizon in horizons:
             seeds, main_seed = read_seeds(folder, model, horizon, extra)
             entries.append(spread_entry(model, horizon, seeds, main_seed))
-    record = {"models": (["ynet"] if ynet is not None else []) + list(MODELS),
+    record = {"models": ([YNET] if ynet is not None else []) + list(MODELS),
               "horizons": list(horizons), "extra_seeds": list(extra)}
     if ynet is not None:
         record.update(profile=ynet.profile, ynet_extra_seeds=list(ynet.params.seeds))

@@ -28,6 +28,7 @@ import torch
 
 from pipeline.benchmarks.registry import short_term
 from pipeline.device import CPU, describe
+from pipeline.model_list import PECNET
 from pipeline.studies.pecnet_test_selection import (LABEL, PROTOCOLS, compat_summary,
                                                     retrain_scoring_splits)
 from pipeline.runners.short_term import sample_windows
@@ -40,7 +41,7 @@ if TYPE_CHECKING:  # annotations only: a stage's code holds the sections it read
     from pipeline.config.short_term_pecnet_test_selection import ShortTermPecnetTestSelectionParams
     from pipeline.config.train_baseline import TrainBaselineParams
 
-MODEL = "pecnet"
+MODEL = PECNET
 SWITCH = "short_term_pecnet_test_selection"
 SELECTION = "raw"  # the epoch `evaluate_short_term_baseline` scores: best.pt, the lowest val ADE
 

@@ -38,6 +38,7 @@ from torch import nn
 
 from pipeline import checkpoints
 from pipeline.config.pecnet import PecnetConfig
+from pipeline.model_list import PECNET
 from pipeline.runners.baselines import common
 from pipeline.runners.baselines.common import FitResult, as_input, mlp
 from pipeline.runners.baselines.training import run_training
@@ -170,7 +171,7 @@ def kl_divergence(mu: torch.Tensor, logvar: torch.Tensor) -> torch.Tensor:
 class Pecnet:
     """PECNet behind the common baseline interface (fit / load / predict)."""
 
-    name = "pecnet"
+    name = PECNET
     config_class = PecnetConfig
     trainable = True
 

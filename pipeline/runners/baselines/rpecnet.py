@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from pipeline.model_list import RPECNET
 from pipeline.runners.baselines import common
 from pipeline.runners.baselines.pecnet import Pecnet
 from pipeline.device import CPU
@@ -91,7 +92,7 @@ def mean_fed_back(model: Pecnet, past: np.ndarray, groups: np.ndarray, k: int, n
 class RecurrentPecnet:
     """R-PECNet behind the common baseline interface (load / predict; nothing to fit)."""
 
-    name = "rpecnet"
+    name = RPECNET
     config_class = None
     trainable = False
     base_horizon = 5  # seconds (= steps at 1 FPS) the underlying PECNet is trained for

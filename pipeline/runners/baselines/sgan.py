@@ -30,6 +30,7 @@ from torch import nn
 
 from pipeline import checkpoints
 from pipeline.config.sgan import SganConfig
+from pipeline.model_list import SGAN
 from pipeline.runners.baselines import common
 from pipeline.runners.baselines.common import FitResult, as_input, mlp
 from pipeline.runners.baselines.training import run_training
@@ -184,7 +185,7 @@ def soft_labels(n: int, bounds: list[float], generator: torch.Generator,
 class SocialGan:
     """S-GAN behind the common baseline interface (fit / load / predict)."""
 
-    name = "sgan"
+    name = SGAN
     config_class = SganConfig
     trainable = True
 
