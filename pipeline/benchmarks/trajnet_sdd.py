@@ -26,8 +26,7 @@ import pandas as pd
 from pipeline.benchmarks.base import SceneMasks, ScoredTable
 from pipeline.benchmarks.short_term import (ShortTermBenchmark, ShortTermInputError, ShortTermSplits,
                                             number_windows, read_rows, splits_of)
-from pipeline.data.labels import sdd_scene_image
-from pipeline.data.ynet_data import image_sizes
+from pipeline.data.labels import image_sizes, sdd_scene_image
 from pipeline.dataset_list import SDD
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
