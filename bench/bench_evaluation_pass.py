@@ -42,7 +42,7 @@ from pipeline.data.ynet_data import SceneWindows, group_by_scene
 from pipeline.device import conv_layout
 from pipeline.runners.ynet_scoring import (load_for_scoring, predict_samplings,
                                            sequence_settings, setting_samplings)
-from pipeline.data.ynet_data import image_sizes
+from pipeline.data.labels import image_sizes
 from ynet.model import YNet
 
 WINDOWS = Path("data/windows/release_tf30.parquet")

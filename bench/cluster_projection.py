@@ -199,7 +199,7 @@ def train_windows_per_scene(tables: list[Path]) -> dict[str, int]:
 def map_pixels(data: Path, params: dict) -> tuple[float, float] | str:
     """(SDD, ETH/UCY) mean map pixels per training sample at the paper resizes, from the window
     tables and the scene images under `data`; or the file that is missing."""
-    from pipeline.data.ynet_data import image_sizes  # cv2: only where the real maps are read
+    from pipeline.data.labels import image_sizes  # cv2: only where the real maps are read
 
     sdd_table = data / "windows/release_tf30.parquet"
     ethucy_index = data / "short_term/ethucy_semantic/index.json"

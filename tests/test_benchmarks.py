@@ -1,6 +1,8 @@
 """The benchmark registry (`pipeline.benchmarks.registry`): which benchmarks there are, what each
-short-term one says about itself (unit, truth columns, table, prediction benchmark) and the params
-keys its settings come from (`settings_key`: sdd or ethucy)."""
+short-term one says about itself (unit, truth columns, table, prediction benchmark, the raw
+sources it reads) and the params keys its settings come from (`settings_key`: sdd or ethucy), and
+what the report asks of every one (its names in the paper and the studies, where its records
+are)."""
 
 from __future__ import annotations
 
@@ -11,13 +13,16 @@ import pytest
 
 from pipeline.benchmarks.ethucy import FOLDS, EthUcyFold
 from pipeline.benchmarks.ind import IND
-from pipeline.benchmarks.registry import BENCHMARKS, SHORT_TERM, get, short_term
+from pipeline.benchmarks.registry import (BENCHMARKS, SHORT_TERM, get, long_term, scored,
+                                         short_term, studied)
+from pipeline.benchmarks.short_term import ScoringSources
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD, TrajnetSdd
 from pipeline.config.loading import load_profile, read_params
 from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.dataset_list import SHORT_TERM_DATASETS
+from pipeline.runners.short_term import missing_raw_source
 from pipeline.splits import FOLD_TEST_SCENES
 
 REPO = Path(__file__).resolve().parents[1]
@@ -120,3 +125,50 @@ def test_ks_threshold_and_epochs_read_the_benchmarks_key(short):
     for i, model in enumerate(short.epochs):
         assert short_term("sdd").epochs(short, model) == 10 + i
         assert short_term("zara2").epochs(short, model) == 20 + i
+
+
+def test_each_benchmark_says_how_the_paper_the_studies_and_the_records_name_it():
+    assert long_term("sdd") is SDD_LONG_TERM and long_term("ind") is IND
+    with pytest.raises(KeyError, match="no long-term benchmark 'eth'"):
+        long_term("eth")
+    assert studied("sdd_long") is SDD_LONG_TERM and studied("sdd") is TRAJNET_SDD
+    assert studied("zara2") is FOLDS["zara2"] and studied("ind") is None and studied("") is None
+    assert scored("ind") is IND and scored("sdd") is TRAJNET_SDD and scored("nope") is None
+    assert [b.label for b in SHORT_TERM.values()] == ["SDD (TrajNet)", "ETH", "Hotel", "Univ",
+                                                     "Zara1", "Zara2"]
+    assert FOLDS["hotel"].in_paper == "Table 2, HOTEL fold" and FOLDS["hotel"].paper_key == "hotel"
+
+
+def test_each_benchmark_says_where_its_records_are():
+    assert [b.summary_file for b in SHORT_TERM.values()] == [
+        "sdd.json", *(f"ethucy_{fold}.json" for fold in FOLD_NAMES)]
+    assert TRAJNET_SDD.table_k is None and {f.table_k for f in FOLDS.values()} == {20}
+    assert (SDD_LONG_TERM.metrics_file, IND.metrics_file) == ("ynet_eval.json",
+                                                              "ind_benchmark.json")
+    assert SDD_LONG_TERM.baseline_metrics("sgan", 30) == ("baselines/sgan_tf30.json", ())
+    assert IND.baseline_metrics("sgan", 30) == ("ind_benchmark.json", ("baselines", "sgan"))
+    assert SDD_LONG_TERM.stored_scores("sgan", "tf30") == (
+        "beyond/long_term.json", ("tables", "tf30", "models", "sgan"))
+    assert IND.stored_scores("sgan", "tf30") == (
+        "beyond/ind.json", ("benchmarks", "ind", "models", "sgan"))
+
+
+def test_ynet_stages_ask_the_benchmark_which_raw_sources_it_reads():
+    sdd, eth = short_term("sdd"), short_term("eth")
+    assert sdd.raw_sources(images=True) == sdd.raw_sources(images=False) == ("sdd",)
+    assert eth.raw_sources(images=True) == ("ethucy-scenes",) and not eth.raw_sources(images=False)
+    given = {"sdd": None, "ethucy_scenes": Path("scenes")}  # a stage's vars(args)
+    assert missing_raw_source(sdd, given, images=False) == "Y-net on sdd needs --sdd"
+    assert missing_raw_source(eth, given, images=True) is None
+    assert missing_raw_source(eth, {"sdd": Path("sdd")}, images=True) == \
+        "Y-net on eth needs --ethucy-scenes"
+    assert missing_raw_source(eth, {}, images=False) is None
+
+
+def test_the_folds_read_the_road_maps_once(tmp_path):
+    reads = []
+    sources = ScoringSources(tmp_path, 8)
+    for fold in FOLDS.values():
+        assert sources.masks(fold.maps(tmp_path), lambda folder: reads.append(folder) or "maps") \
+            == "maps"
+    assert reads == [tmp_path / "ethucy_semantic"]

@@ -64,9 +64,7 @@ IND = "runners.ind: inD's segmentation, Y-net and baselines, training and scorin
 DEVICE = "device: parses runtime.device names with the section's own check (parse_device_name)"
 AUGMENT = "data.augment (through runners.segmentation): its NO_AUGMENT default"
 NOT_READ: dict[str, dict[str, str]] = {
-    "runtime": dict.fromkeys(["epoch_selection", "horizon_analysis", "score_predictions",
-                              "score_short_term_predictions", "short_term_tables",
-                              "short_term_windows"], DEVICE),
+    "runtime": dict.fromkeys(["epoch_selection", "horizon_analysis"], DEVICE),
     "sgan": {**dict.fromkeys(["epoch_selection", "evaluate_pecnet_ka", "evaluate_rpecnet",
                               "evaluate_rpecnet_seed", "rpecnet_rollouts", "pecnet_test_selection",
                               "short_term_pecnet_test_selection"], REGISTRY),

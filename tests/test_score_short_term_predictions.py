@@ -30,10 +30,10 @@ import pytest
 import yaml
 
 from pipeline.benchmarks.base import WindowTruth
-from pipeline.benchmarks.ethucy import SCENES, road_masks, write_ethucy_maps
+from pipeline.benchmarks.ethucy import MAPS, SCENES, road_masks, write_ethucy_maps
 from pipeline.benchmarks.ind import IND
 from pipeline.benchmarks.registry import short_term
-from pipeline.benchmarks.short_term import number_windows
+from pipeline.benchmarks.short_term import ScoringSources, number_windows
 from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.harness import stored_scores
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
@@ -322,8 +322,9 @@ def test_names_and_tables_agree_with_the_writers(tmp_path):
         metadata = benchmark.prediction_metadata(tmp_path, "sgan")
         assert (metadata["benchmark"], metadata["window_table"]) \
             == (f"short_term_{stem}", str(table))
-        scored = (benchmark.scored_table(tmp_path, N_PAST, None) if dataset != "sdd" else
-                  benchmark.scored_table(tmp_path, N_PAST, None, {}, tmp_path / "scales.yaml"))
+        no_maps = {tmp_path / MAPS: None}  # the road maps, as if read: none are written here
+        scored = benchmark.scored_table(ScoringSources(tmp_path, N_PAST, scales_path=tmp_path
+                                                       / "scales.yaml", read_masks=no_maps))
         assert (scored.name, scored.table, scored.unit, list(scored.truth_columns)) \
             == (metadata["benchmark"], table, metadata["unit"], metadata["truth_columns"])
     assert short_term("zara1").table(tmp_path).name == "ethucy_zara1.parquet"

@@ -21,9 +21,10 @@ from pipeline.config.loading import load_profile, load_section, read_params
 from pipeline.config.ttst import TtstParams
 from pipeline.config.windows import WindowParams
 from pipeline.config.ynet import YnetSettings
+from pipeline.data.labels import image_sizes
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays, to_arrays
-from pipeline.data.ynet_data import SceneWindows, image_sizes
+from pipeline.data.ynet_data import SceneWindows
 from pipeline.runners.ynet_scoring import load_for_scoring
 from ynet.model import YNet
 

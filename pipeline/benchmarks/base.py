@@ -22,13 +22,19 @@ from pipeline.io import IntermediateError
 class Benchmark:
     """One benchmark: its name in the registry, how people call it, the unit its errors are in
     and the table columns its truth comes from. A benchmark module subclasses it with its own
-    loading (window tables, scales, masks) and the settings it overrides."""
+    loading (window tables, scales, masks) and the settings it overrides. Where the paper and the
+    studies name it, it says so here, so that the report asks it instead of testing names."""
 
     name: str  # registry key
     title: str  # for people: the report, logs, errors
     unit: str  # px (original image pixels) | m
     truth_columns: tuple[str, str] = ("x", "y")  # the window-table columns its errors compare with
     split: str | None = "test"  # the windows its predictions files hold (None: every window)
+    label: str = ""  # its short name in the report's tables (SDD, Hotel, inD)
+    paper_table: str = ""  # its table in paper_values.yaml (sdd_short, eth_ucy, sdd_long); "": none
+    paper_key: str = ""  # its key in that table: Tables 3-4's column `dataset`, Table 2's scene
+    in_paper: str = ""  # where the paper reports it, for people ("Table 2, ETH fold")
+    study_key: str = ""  # its name in the studies' records (studies/budget/<key>_<model>_x<f>.json)
 
 
 # ---------------------------------------------------------------------------------------------

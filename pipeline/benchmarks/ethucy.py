@@ -44,10 +44,10 @@ import numpy as np
 import pandas as pd
 
 from pipeline.benchmarks.base import SceneMasks, ScoredTable
-from pipeline.benchmarks.short_term import (METRE_COLUMNS, ShortTermBenchmark, ShortTermInputError,
-                                            ShortTermSplits, number_windows, read_rows, splits_of)
+from pipeline.benchmarks.short_term import (METRE_COLUMNS, ScoringSources, ShortTermBenchmark,
+                                            ShortTermInputError, ShortTermSplits, number_windows,
+                                            read_rows, splits_of)
 from pipeline.data.homography import metres_to_pixels, pixels_to_metres, read_homography
-from pipeline.data.semantic_maps import QUANT, load_semantic_maps, quantise
 from pipeline.data.window_table import select_split, to_arrays
 from pipeline.dataset_list import ETHUCY
 from pipeline.io import IntermediateError, index_value, positive_ints, read_json_index
@@ -126,17 +126,24 @@ class EthUcyFold(ShortTermBenchmark):
         scenes = load_ethucy_scenes(self.maps(windows))
         return lambda name: ethucy_scene_image(cameras, name, scenes[name].image_hw)
 
-    def scored_table(self, windows: Path, n_past: int, masks: SceneMasks) -> ScoredTable:
-        """Its test windows as scoring sees them: metres, the road masks (`road_masks`), collisions
-        within one SGAN sequence."""
-        return ScoredTable(self.prediction_benchmark(), self.table(windows), self.unit, n_past,
-                           self.truth_columns, self.split, masks=masks,
+    def scored_table(self, sources: ScoringSources) -> ScoredTable:
+        """Its test windows as scoring sees them: metres, the road masks (`road_masks`, shared by
+        the folds), collisions within one SGAN sequence."""
+        return ScoredTable(self.prediction_benchmark(), self.table(sources.windows), self.unit,
+                           sources.n_past, self.truth_columns, self.split,
+                           masks=sources.masks(self.maps(sources.windows), road_masks),
                            same_start_collisions=self.same_start_collisions)
 
 
+TABLE_K = 20  # Table 2's K: the one a fold's summary (stage short_term_tables) holds
+RAW_CAMERAS = "ethucy-scenes"  # the fetched camera images (data/raw/ethucy-scenes)
+FOLD_LABELS = {"eth": "ETH", "hotel": "Hotel", "univ": "Univ", "zara1": "Zara1", "zara2": "Zara2"}
 FOLDS = {fold: EthUcyFold(f"ethucy_{fold}", f"ETH/UCY, {fold} fold", "m", METRE_COLUMNS,
+                          label=FOLD_LABELS[fold], paper_table="eth_ucy", paper_key=fold,
+                          in_paper=f"Table 2, {fold.upper()} fold", study_key=fold,
                           dataset=fold, table_file=f"ethucy_{fold}.parquet", settings_key=ETHUCY,
-                          same_start_collisions=True)
+                          same_start_collisions=True, summary_file=f"ethucy_{fold}.json",
+                          table_k=TABLE_K, images_source=RAW_CAMERAS)
          for fold in FOLD_TEST_SCENES}
 
 
@@ -176,6 +183,9 @@ def splits_in_metres(table: pd.DataFrame, fold: str, n_past: int, n_future: int,
 def road_masks(maps_dir: Path) -> SceneMasks:
     """The ETH/UCY road / not-road maps as class masks (NOT_ROAD where p(not road) > p(road), else
     ROAD) on each scene's grid, positions in metres mapped through the scene's homography."""
+    # Imported here: pipeline.data.semantic_maps imports torch; asking the benchmark never needs it.
+    from pipeline.data.semantic_maps import load_semantic_maps
+
     maps_dir = Path(maps_dir)
     index_path = maps_dir / "index.json"
     resize = index_value(read_json_index(index_path), "resize", float, index_path)
@@ -331,6 +341,9 @@ def write_ethucy_maps(out: Path, release_root: Path, scenes_root: Path, scene_na
                       homographies: dict[str, np.ndarray], resize: float) -> dict[str, dict]:
     """Write `maps.npz` + `index.json` for `scene_names` into the folder `out`; returns the index's
     per-scene entries."""
+    # Imported here: pipeline.data.semantic_maps imports torch; asking the benchmark never needs it.
+    from pipeline.data.semantic_maps import QUANT, quantise
+
     maps, entries = {}, {}
     for name in sorted(scene_names):
         scene = SCENES[name]

@@ -48,8 +48,8 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from pipeline.benchmarks.base import Benchmark, SceneMasks, ScoredTable, class_values
-from pipeline.data.labels import validate_mask
+from pipeline.benchmarks.base import SceneMasks, ScoredTable, class_values
+from pipeline.benchmarks.long_term import LongTermBenchmark
 from pipeline.data.window_table import COLUMNS, WindowArrays, conform, to_arrays
 from pipeline.data.windows import count_windows, cut_pieces, cut_windows
 from pipeline.io import (IntermediateError, atomic_dir, index_value, read_json_index,
@@ -283,6 +283,9 @@ def window_tables(recordings: list[Recording], splits: dict[str, str], n_past: i
 
 def find_masks(labels_dir: Path, recordings: list[Recording]) -> dict[str, np.ndarray]:
     """scene_id -> validated mask (H, W) uint8 for every XX_background_mask.png of `labels_dir`."""
+    # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
+    from pipeline.data.labels import validate_mask
+
     if not labels_dir.is_dir():
         raise IndError(f"data.ind.labels = {labels_dir}: not a folder")
     by_number = {r.recording: r for r in recordings}
@@ -418,8 +421,18 @@ def write(result: IndWindows, out: Path, metrics: Path) -> None:
 
 
 @dataclass(frozen=True)
-class Ind(Benchmark):
-    """inD: the t_f = 30 s table's test windows, in pixels of each recording's background image."""
+class Ind(LongTermBenchmark):
+    """inD: the t_f = 30 s table's test windows, in pixels of each recording's background image;
+    one record of every model (stage `evaluate_ind`), from the user's own copy of inD (no study
+    runs on it)."""
+
+    def baseline_metrics(self, model: str, t_f: int) -> tuple[str, tuple[str, ...]]:
+        """Beside Y-net's, in its one record."""
+        return self.metrics_file, ("baselines", model)
+
+    def stored_scores(self, model: str, table: str) -> tuple[str, tuple[str, ...]]:
+        """inD's record of `score_predictions` (one window table)."""
+        return "beyond/ind.json", ("benchmarks", self.name, "models", model)
 
     def prediction_benchmark(self) -> str:
         """The benchmark an inD predictions file names (its windows: the t_f = 30 s table's)."""
@@ -486,7 +499,8 @@ class Ind(Benchmark):
                            "no hand-labelled inD mask (data.ind.labels not set)")
 
 
-IND = Ind("ind", "inD long-term", "px")
+IND = Ind("ind", "inD long-term", "px", label="inD", paper_table="sdd_long", paper_key="ind",
+          metrics_file="ind_benchmark.json")
 
 
 # ---------------------------------------------------------------------------------------------

@@ -19,15 +19,23 @@ from typing import Any
 import numpy as np
 import yaml
 
-from pipeline.benchmarks.base import Benchmark, SceneMasks, ScoredTable, class_values
-from pipeline.data.labels import read_index, read_label_map
+from pipeline.benchmarks.base import SceneMasks, ScoredTable, class_values
+from pipeline.benchmarks.long_term import LongTermBenchmark
 from pipeline.io import IntermediateError
 
 
 @dataclass(frozen=True)
-class SddLongTerm(Benchmark):
+class SddLongTerm(LongTermBenchmark):
     """The long-term SDD benchmark: one window table per horizon (and the release's), every window
-    of a table scored in original pixels."""
+    of a table scored in original pixels; a record per horizon of each baseline."""
+
+    def baseline_metrics(self, model: str, t_f: int) -> tuple[str, tuple[str, ...]]:
+        """A baseline's own file per horizon (stage `evaluate_baseline`)."""
+        return f"baselines/{model}_tf{t_f}.json", ()
+
+    def stored_scores(self, model: str, table: str) -> tuple[str, tuple[str, ...]]:
+        """The long-term record of `score_predictions`, a table per window table."""
+        return "beyond/long_term.json", ("tables", table, "models", model)
 
     def prediction_benchmark(self, table: Path) -> str:
         """The benchmark a long-term SDD window table defines, named after the table's file:
@@ -55,7 +63,10 @@ class SddLongTerm(Benchmark):
                            masks=masks)
 
 
-SDD_LONG_TERM = SddLongTerm("sdd_long_term", "SDD long-term", "px")
+SDD_LONG_TERM = SddLongTerm("sdd_long_term", "SDD long-term", "px", label="SDD",
+                            paper_table="sdd_long", paper_key="sdd",
+                            in_paper="Table 3, SDD long term (t_f = 30 s)", study_key="sdd_long",
+                            metrics_file="ynet_eval.json")
 
 
 def read_scales(path: Path) -> dict[str, float]:
@@ -81,6 +92,9 @@ def read_scales(path: Path) -> dict[str, float]:
 def sdd_label_masks(labels_dir: Path, forbidden_classes: Sequence[str]) -> SceneMasks:
     """SDD's hand-labelled class masks (`data/labels`, at the original image resolution, every
     video the index lists), each checked against the index's size when read."""
+    # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
+    from pipeline.data.labels import read_index, read_label_map
+
     labels_dir = Path(labels_dir)
     sizes = read_index(labels_dir)["videos"]  # name -> {height, width, ...}
 

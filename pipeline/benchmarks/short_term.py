@@ -7,22 +7,25 @@ each a `ShortTermBenchmark` named by the stages' `--dataset`: TrajNet SDD
 A short-term benchmark says where its table is, the unit its errors are in, the params keys of
 its own settings (`settings_key`: `k_<key>`, `ynet_<key>`, `rel_threshold.<key>`,
 `epochs.<model>.<key>`, `ynet_training.<key>`, `short_term_baselines.<profile>.<model>.<key>`),
-and loads its windows (`load`: original pixels, the test truth in its unit; `load_in_unit`: every
-split in its unit, for the baselines). The tables' text files are read here (`read_rows`) and
-numbered here (`number_windows`).
+its summary for the report (`summary_file`, `table_k`), the fetched raw sources its scenes come
+from (`raw_sources`), what scoring its stored predictions reads (`scored_table` of
+`ScoringSources`), and loads its windows (`load`: original pixels, the test truth in its unit;
+`load_in_unit`: every split in its unit, for the baselines; by default as they are, for a
+benchmark in pixels). The tables' text files are read here (`read_rows`) and numbered here
+(`number_windows`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
-from pipeline.benchmarks.base import Benchmark
+from pipeline.benchmarks.base import Benchmark, SceneMasks, ScoredTable
 from pipeline.data.window_table import WindowArrays, conform, select_split, to_arrays
 from pipeline.io import IntermediateError
 from pipeline.model_list import YNET
@@ -67,6 +70,26 @@ def splits_of(table: pd.DataFrame, title: str, n_past: int, n_future: int
     return train, val, test
 
 
+@dataclass
+class ScoringSources:
+    """What scoring a short-term benchmark's stored predictions may read besides its table: the
+    `short_term_windows` folder, SDD's hand-label masks and scales (TrajNet SDD), and the masks
+    read so far (the ETH/UCY folds share one folder of road maps: it is read once)."""
+
+    windows: Path
+    n_past: int
+    sdd_masks: SceneMasks | None = None
+    scales: Mapping[str, float] = field(default_factory=dict)
+    scales_path: Path | None = None
+    read_masks: dict[Path, SceneMasks] = field(default_factory=dict)
+
+    def masks(self, folder: Path, read: Callable[[Path], SceneMasks]) -> SceneMasks:
+        """The masks of `folder`, `read` on first use."""
+        if folder not in self.read_masks:
+            self.read_masks[folder] = read(folder)
+        return self.read_masks[folder]
+
+
 @dataclass(frozen=True)
 class ShortTermBenchmark(Benchmark):
     """A short-term benchmark: its `--dataset` name, its table in the `short_term_windows` folder
@@ -76,6 +99,16 @@ class ShortTermBenchmark(Benchmark):
     table_file: str = ""
     settings_key: str = ""
     same_start_collisions: bool = False  # scoring: collisions only between windows starting together
+    summary_file: str = ""  # its file in stage `short_term_tables`' folder (the report reads it)
+    table_k: int | None = None  # the one K its summary holds; None: every K scored, by K
+    sizes_source: str | None = None  # raw source (`--<source>`) of its scene sizes; None: windows
+    images_source: str | None = None  # raw source (`--<source>`) of its scene images
+
+    def raw_sources(self, images: bool) -> tuple[str, ...]:
+        """The fetched raw sources Y-net's stages must be given on it (each as `--<source>`): its
+        scene sizes' and, with `images` (scoring draws its qualitative windows), its images'."""
+        wanted = (self.sizes_source, self.images_source if images else None)
+        return tuple(dict.fromkeys(source for source in wanted if source is not None))
 
     def table(self, windows: Path) -> Path:
         """Its window table in the `short_term_windows` folder `windows`."""
@@ -135,8 +168,8 @@ class ShortTermBenchmark(Benchmark):
 
     def load(self, windows: Path, n_past: int, n_future: int) -> ShortTermSplits:
         """Its windows from the `short_term_windows` folder, in original pixels, the test truth in
-        its unit."""
-        raise NotImplementedError
+        its unit (as they are: a benchmark in pixels)."""
+        return self.splits_in_unit(self.read_table(windows), n_past, n_future)
 
     def load_in_unit(self, windows: Path, n_past: int, n_future: int) -> ShortTermSplits:
         """Its windows with every split in its unit (what the baselines train and predict in); a
@@ -148,7 +181,9 @@ class ShortTermBenchmark(Benchmark):
             raise IntermediateError(f"{path}: {error}") from None
 
     def splits_in_unit(self, table: pd.DataFrame, n_past: int, n_future: int) -> ShortTermSplits:
-        raise NotImplementedError
+        """Every split of `table` in its unit: the table's x, y (a benchmark in pixels)."""
+        train, val, test = splits_of(table, self.dataset, n_past, n_future)
+        return ShortTermSplits(train, val, test, test.future, self.unit, lambda points: points)
 
     def scene_sizes(self, windows: Path, sdd: Path | None, scene_ids: set[str]
                     ) -> dict[str, tuple[int, int]]:
@@ -158,6 +193,10 @@ class ShortTermBenchmark(Benchmark):
     def scene_images(self, windows: Path, sdd: Path | None, cameras: Path | None
                      ) -> Callable[[str], np.ndarray]:
         """scene_id -> its original-size BGR image, on the grid of the windows' original pixels."""
+        raise NotImplementedError
+
+    def scored_table(self, sources: ScoringSources) -> ScoredTable:
+        """Its test windows as scoring their stored predictions sees them."""
         raise NotImplementedError
 
 

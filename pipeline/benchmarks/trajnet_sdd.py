@@ -15,7 +15,7 @@ windows meet each neighbour once, so collisions keep the long-term rule (any sha
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -23,11 +23,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from pipeline.benchmarks.base import SceneMasks, ScoredTable
-from pipeline.benchmarks.short_term import (ShortTermBenchmark, ShortTermInputError, ShortTermSplits,
-                                            number_windows, read_rows, splits_of)
-from pipeline.data.labels import sdd_scene_image
-from pipeline.data.ynet_data import image_sizes
+from pipeline.benchmarks.base import ScoredTable
+from pipeline.benchmarks.short_term import (ScoringSources, ShortTermBenchmark, ShortTermInputError,
+                                            number_windows, read_rows)
 from pipeline.dataset_list import SDD
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
@@ -39,35 +37,40 @@ SDD_RATIOS = "H_SDD.txt"  # metres per pixel of every SDD video, inside trajnet-
 
 @dataclass(frozen=True)
 class TrajnetSdd(ShortTermBenchmark):
-    """TrajNet SDD: original pixels throughout (the baselines too), the test truth as it is."""
-
-    def load(self, windows: Path, n_past: int, n_future: int) -> ShortTermSplits:
-        return self.splits_in_unit(self.read_table(windows), n_past, n_future)
-
-    def splits_in_unit(self, table: pd.DataFrame, n_past: int, n_future: int) -> ShortTermSplits:
-        train, val, test = splits_of(table, self.dataset, n_past, n_future)
-        return ShortTermSplits(train, val, test, test.future, self.unit, lambda points: points)
+    """TrajNet SDD: original pixels throughout (the baselines too: `ShortTermBenchmark.load`,
+    `splits_in_unit`), the test truth as it is."""
 
     def scene_sizes(self, windows: Path, sdd: Path | None, scene_ids: set[str]
                     ) -> dict[str, tuple[int, int]]:
         """Each video's reference image size under the fetched SDD root `sdd`."""
+        # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
+        from pipeline.data.labels import image_sizes
+
         return image_sizes(sdd, scene_ids)
 
     def scene_images(self, windows: Path, sdd: Path | None, cameras: Path | None
                      ) -> Callable[[str], np.ndarray]:
         """SDD's `reference.jpg` under `sdd`."""
+        # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
+        from pipeline.data.labels import sdd_scene_image
+
         return lambda scene_id: sdd_scene_image(sdd, scene_id)
 
-    def scored_table(self, windows: Path, n_past: int, masks: SceneMasks,
-                     scales: Mapping[str, float], scales_path: Path) -> ScoredTable:
+    def scored_table(self, sources: ScoringSources) -> ScoredTable:
         """Its test windows as scoring sees them: original pixels, SDD's scales and hand labels."""
-        return ScoredTable(self.prediction_benchmark(), self.table(windows), self.unit, n_past,
-                           self.truth_columns, self.split, metres_per_unit=scales,
-                           scales_source=f"per video, {Path(scales_path)}", masks=masks)
+        return ScoredTable(self.prediction_benchmark(), self.table(sources.windows), self.unit,
+                           sources.n_past, self.truth_columns, self.split,
+                           metres_per_unit=sources.scales,
+                           scales_source=f"per video, {Path(sources.scales_path)}",
+                           masks=sources.sdd_masks)
 
 
-TRAJNET_SDD = TrajnetSdd("trajnet_sdd", "SDD short-term (TrajNet)", "px", dataset=SDD,
-                         table_file="sdd_trajnet.parquet", settings_key=SDD)
+RAW_SDD = "sdd"  # the fetched SDD (data/raw/sdd): reference images, hence the scenes' sizes
+TRAJNET_SDD = TrajnetSdd("trajnet_sdd", "SDD short-term (TrajNet)", "px", label="SDD (TrajNet)",
+                         paper_table="sdd_short", in_paper="Table 1, SDD short term (TrajNet)",
+                         study_key=SDD, dataset=SDD, table_file="sdd_trajnet.parquet",
+                         settings_key=SDD, summary_file="sdd.json", sizes_source=RAW_SDD,
+                         images_source=RAW_SDD)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -71,6 +71,18 @@ def sdd_scene_image(sdd_root: Path, scene_id: str) -> np.ndarray:
     return image
 
 
+def image_sizes(sdd_root: Path, scene_ids) -> dict[str, tuple[int, int]]:
+    """Original (height, width) of each video's reference image."""
+    sizes = {}
+    for scene_id in scene_ids:
+        path = reference_image_path(sdd_root, scene_id)
+        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        if image is None:
+            raise FileNotFoundError(f"{path}: cannot read the scene image")
+        sizes[scene_id] = image.shape[:2]
+    return sizes
+
+
 def find_images(sdd_root: Path) -> dict[str, Path]:
     """Every video's reference image, keyed `<scene>_<k>`."""
     found = {}

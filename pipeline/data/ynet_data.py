@@ -5,13 +5,13 @@ scene and shared by every window of the batch. Coordinates follow `ynet.heatmaps
 row) in pixels of the resized map; windows arrive in original pixels and are multiplied by `resize`.
 The 8x augmentation (rotations by 0/90/180/270 degrees, each with and without a horizontal flip:
 `pipeline.config.ynet.AUGMENTATIONS`, beside the setting that counts them) transforms the map and the
-coordinates together. A scene's size is its video's reference image's (`image_sizes`).
+coordinates together. A scene's size is its video's reference image's
+(`pipeline.data.labels.image_sizes`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -45,19 +45,6 @@ class SceneWindows:
             return self
         return replace(self, semantic=to_device(self.semantic, device),
                        past=to_device(self.past, device), future=to_device(self.future, device))
-
-
-def image_sizes(sdd_root: Path, scene_ids) -> dict[str, tuple[int, int]]:
-    """Original (height, width) of each video's reference image."""
-    sizes = {}
-    for scene_id in scene_ids:
-        scene, video = scene_id.rsplit("_", 1)
-        path = sdd_root / "annotations" / scene / f"video{video}" / "reference.jpg"
-        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-        if image is None:
-            raise FileNotFoundError(f"{path}: cannot read the scene image")
-        sizes[scene_id] = image.shape[:2]
-    return sizes
 
 
 def resize_semantic(semantic: np.ndarray, height: int, width: int) -> np.ndarray:

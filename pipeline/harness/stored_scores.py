@@ -55,9 +55,9 @@ from typing import Any, TYPE_CHECKING
 import numpy as np
 
 from pipeline.benchmarks.base import SceneMasks, ScoredTable, WindowTruth
-from pipeline.benchmarks.ethucy import EthUcyFold, road_masks
 from pipeline.benchmarks.registry import short_term
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
+from pipeline.benchmarks.short_term import ScoringSources
 from pipeline.harness import scoring
 from pipeline.harness.predictions import NOT_RUN, PredictionArrays, read_prediction_rounds
 from pipeline.io import IntermediateError
@@ -313,14 +313,9 @@ def short_term_tables(windows: Path, predictions: Path, datasets: Sequence[str],
                       sdd_masks: SceneMasks, scales: Mapping[str, float], scales_path: Path
                       ) -> dict[str, tuple[ScoredTable, Path]]:
     """{dataset: (its benchmark's ScoredTable, its predictions folder `<predictions>/<dataset>`)}:
-    what `score_benchmarks` scores for the short-term record. TrajNet SDD: SDD's scales and hand
-    labels; ETH/UCY: the road maps (read only if a fold is asked for)."""
-    benchmarks = {dataset: short_term(dataset) for dataset in datasets}
-    folds = [b for b in benchmarks.values() if isinstance(b, EthUcyFold)]
-    roads = road_masks(folds[0].maps(windows)) if folds else None
-    out = {}
-    for dataset, benchmark in benchmarks.items():
-        table = (benchmark.scored_table(windows, n_past, roads) if isinstance(benchmark, EthUcyFold) else
-                 benchmark.scored_table(windows, n_past, sdd_masks, scales, scales_path))
-        out[dataset] = (table, Path(predictions) / dataset)
-    return out
+    what `score_benchmarks` scores for the short-term record. Each benchmark takes what it reads
+    from `ScoringSources` (TrajNet SDD: SDD's scales and hand labels; ETH/UCY: the road maps, read
+    once, only if a fold is asked for)."""
+    sources = ScoringSources(windows, n_past, sdd_masks, scales, scales_path)
+    return {dataset: (short_term(dataset).scored_table(sources), Path(predictions) / dataset)
+            for dataset in datasets}

@@ -34,7 +34,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from pipeline.dataset_list import SHORT_TERM_DATASETS
+from pipeline.benchmarks.registry import SHORT_TERM
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.io import IntermediateError
 
 # What each stored array must look like: a letter names a size that must agree across arrays.
@@ -49,9 +50,8 @@ WINDOW_SHAPES = {
 # What the page and the captions call a benchmark label (`--qualitative <label>=<path>`), with
 # the time one step stands for (long-term windows are sampled at 1 FPS, short-term at 2.5 FPS).
 BENCHMARK_TITLES = {
-    "long_term": "SDD long-term, 1 s a step",
-    **{f"short_term_{d}": ("SDD short-term (TrajNet)" if d == "sdd" else f"ETH/UCY, {d} fold")
-       + ", 0.4 s a step" for d in SHORT_TERM_DATASETS},
+    "long_term": f"{SDD_LONG_TERM.title}, 1 s a step",
+    **{f"short_term_{d}": f"{b.title}, 0.4 s a step" for d, b in SHORT_TERM.items()},
 }
 LABEL = re.compile(r"[a-z0-9_]+")  # labels name files: <label>_<i>.webp
 

@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from pipeline.benchmarks.registry import scored
 from pipeline.model_list import SHORT_TERM_MODELS, label, ours_first
 from pipeline.report.lookups import Absent, Measured, MetricsStore, lookup
 
@@ -244,8 +245,6 @@ def beyond_section(store: MetricsStore, t_f: int, models: Sequence[tuple[str, st
 # The long-term columns without their unit: each row states its own (decimals: `cell_decimals`).
 BENCHMARK_COLUMNS = tuple(replace(c, label=c.label.removesuffix(" (px)")) for c in COLUMNS)
 DISTANCES = frozenset({"ade", "fde", "fde_joint", "ade_best_endpoint"})  # in the row's unit
-BENCHMARK_LABELS = {"sdd": "SDD (TrajNet)", "eth": "ETH", "hotel": "Hotel", "univ": "Univ",
-                    "zara1": "Zara1", "zara2": "Zara2", "ind": "inD"}
 # (key, label) of the short-term models, Y-net first
 SHORT_TERM_ROWS = tuple((name, label(name)) for name in ours_first(SHORT_TERM_MODELS))
 
@@ -255,10 +254,16 @@ def cell_decimals(metric: Metric, unit: Any) -> int:
     return 3 if metric.key in DISTANCES and unit == "m" else metric.decimals
 
 
+def benchmark_label(name: str) -> str:
+    """How a row names the benchmark a record calls `name` (its `Benchmark.label`, else `name`)."""
+    benchmark = scored(name)
+    return benchmark.label if benchmark is not None and benchmark.label else name
+
+
 def benchmark_row(store: MetricsStore, rel: str, name: str, node: Mapping[str, Any], model: str,
                   label: str) -> Row:
     entry = node["models"].get(model)
-    bench = BENCHMARK_LABELS.get(name, name)
+    bench = benchmark_label(name)
     unit = node.get("unit")
     reason = entry.get("not_run_reason") if isinstance(entry, dict) else None
     if isinstance(reason, str):
@@ -274,7 +279,7 @@ def mask_note(name: str, node: Mapping[str, Any]) -> str | None:
     masks = node.get("scene_masks")
     if not isinstance(masks, dict):
         return None
-    bench = BENCHMARK_LABELS.get(name, name)
+    bench = benchmark_label(name)
     if "absent" in masks:
         return f"{bench}: no scene masks ({masks['absent']})"
     classes = ", ".join(masks.get("forbidden_classes") or [])

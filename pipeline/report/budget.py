@@ -12,20 +12,21 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TYPE_CHECKING
 
+from pipeline.benchmarks.registry import studied
 from pipeline.model_list import YNET, label
+from pipeline.report.common import LONG_TERM_TF, paper_columns
 from pipeline.report.figures import _pyplot
 from pipeline.report.lookups import (YNET_MAIN, Measured, MetricsStore, dig, is_number,
                                      lookup_ynet_setting)
 from pipeline.report.provenance import BudgetPoint
 
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.benchmarks.long_term import LongTermBenchmark
+    from pipeline.benchmarks.short_term import ShortTermBenchmark
+
 METRICS = ("ade", "fde")
-LONG_TERM_BENCHMARK = "sdd_long"  # Table 3 at t_f = 30 s
-BENCHMARK_TITLES = {LONG_TERM_BENCHMARK: "Table 3, SDD long term (t_f = 30 s)",
-                    "sdd": "Table 1, SDD short term (TrajNet)", "eth": "Table 2, ETH fold",
-                    "hotel": "Table 2, HOTEL fold", "univ": "Table 2, UNIV fold",
-                    "zara1": "Table 2, ZARA1 fold", "zara2": "Table 2, ZARA2 fold"}
 
 
 @dataclass(frozen=True)
@@ -112,28 +113,59 @@ def headline_value(value) -> float | None:
     return value.mean if isinstance(value, Measured) else None
 
 
+def long_term_numbers(benchmark: LongTermBenchmark, model: str, paper: Mapping[str, Any],
+                      store: MetricsStore) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Table 3's column of `benchmark` at K_a = 1; ours from its records at t_f = 30 s."""
+    column = next((c for c in paper_columns(paper[benchmark.paper_table], benchmark)
+                   if c.get("model") == model and c.get("k_a") == 1), {})
+    rel, keys = benchmark.baseline_metrics(model, LONG_TERM_TF)
+    ours = {m: headline_value(lookup_ynet_setting(store, benchmark.metrics_file, **YNET_MAIN,
+                                                  metric=m))
+            if model == YNET else dig(store.files.get(rel), *keys, m, "mean") for m in METRICS}
+    return {m: column.get(m) for m in METRICS}, ours
+
+
+def sdd_short_numbers(benchmark: ShortTermBenchmark, model: str, paper: Mapping[str, Any],
+                      store: MetricsStore) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Table 1's K = 20 column; ours from the benchmark's summary at K = 20."""
+    column = next((c for c in paper[benchmark.paper_table]["columns"]
+                   if c.get("model") == model and c.get("k") == 20), {})
+    ours = {m: dig(store.files.get(f"short_term/{benchmark.summary_file}"), "models", model,
+                   "k20", m, "mean") for m in METRICS}
+    return {m: column.get(m) for m in METRICS}, ours
+
+
+def eth_ucy_numbers(benchmark: ShortTermBenchmark, model: str, paper: Mapping[str, Any],
+                    store: MetricsStore) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Table 2's cell of the benchmark's scene; ours from its summary (its one K)."""
+    entry = next((e for e in paper[benchmark.paper_table]["models"] if e.get("model") == model),
+                 {})
+    ours = {m: dig(store.files.get(f"short_term/{benchmark.summary_file}"), "models", model, m,
+                   "mean") for m in METRICS}
+    return {m: dig(entry, m, benchmark.paper_key) for m in METRICS}, ours
+
+
+# How a curve's benchmark finds the paper's number and our headline, by its paper table.
+NUMBERS_BY_TABLE = {"sdd_long": long_term_numbers, "sdd_short": sdd_short_numbers,
+                    "eth_ucy": eth_ucy_numbers}
+
+
 def paper_and_headline(benchmark: str, model: str, paper: Mapping[str, Any],
                        store: MetricsStore) -> tuple[dict[str, float | None], dict[str, float | None], str]:
-    """The paper's numbers, our headline run's and the unit for a curve's benchmark: Table 3's
-    SDD column at K_a = 1, Table 1's K = 20 column, or Table 2's fold."""
-    if benchmark == LONG_TERM_BENCHMARK:
-        column = next((c for c in paper["sdd_long"]["columns"] if c.get("dataset") == "sdd"
-                       and c.get("model") == model and c.get("k_a") == 1), {})
-        ours = {m: headline_value(lookup_ynet_setting(store, "ynet_eval.json", **YNET_MAIN, metric=m))
-                if model == YNET
-                else dig(store.files.get(f"baselines/{model}_tf30.json"), m, "mean")
-                for m in METRICS}
-        return {m: column.get(m) for m in METRICS}, ours, "px"
-    if benchmark == "sdd":
-        column = next((c for c in paper["sdd_short"]["columns"]
-                       if c.get("model") == model and c.get("k") == 20), {})
-        ours = {m: dig(store.files.get("short_term/sdd.json"), "models", model, "k20", m, "mean")
-                for m in METRICS}
-        return {m: column.get(m) for m in METRICS}, ours, "px"
-    entry = next((e for e in paper["eth_ucy"]["models"] if e.get("model") == model), {})
-    ours = {m: dig(store.files.get(f"short_term/ethucy_{benchmark}.json"), "models", model, m, "mean")
-            for m in METRICS}
-    return {m: dig(entry, m, benchmark) for m in METRICS}, ours, "m"
+    """The paper's numbers, our headline run's and the unit for a curve's benchmark (its name in
+    the study's records): Table 3's SDD column at K_a = 1, Table 1's K = 20 column, or Table 2's
+    fold; nothing for a benchmark the paper does not report."""
+    found = studied(benchmark)
+    if found is None or found.paper_table not in NUMBERS_BY_TABLE:
+        return dict.fromkeys(METRICS), dict.fromkeys(METRICS), "" if found is None else found.unit
+    paper_values, ours = NUMBERS_BY_TABLE[found.paper_table](found, model, paper, store)
+    return paper_values, ours, found.unit
+
+
+def budget_title(benchmark: str, model: str) -> str:
+    """A curve's title: the model and where the paper reports the benchmark."""
+    found = studied(benchmark)
+    return f"{label(model)}, {found.in_paper if found and found.in_paper else benchmark}"
 
 
 def budget_section(curves: Mapping[tuple[str, str], list[BudgetRun]], paper: Mapping[str, Any],
@@ -144,7 +176,7 @@ def budget_section(curves: Mapping[tuple[str, str], list[BudgetRun]], paper: Map
     for (benchmark, model), runs in sorted(curves.items()):
         paper_values, headline, unit = paper_and_headline(benchmark, model, paper, store)
         figure = slot(f"budget_{benchmark}_{model}.png")
-        title = f"{label(model)}, {BENCHMARK_TITLES.get(benchmark, benchmark)}"
+        title = budget_title(benchmark, model)
         drawn = plot_budget(runs, paper_values, headline, title, unit, figure.path)
         closes = {}
         for metric in METRICS:

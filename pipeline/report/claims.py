@@ -41,24 +41,32 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from pipeline.benchmarks.ethucy import FOLDS
+from pipeline.benchmarks.ind import IND
+from pipeline.benchmarks.long_term import LongTermBenchmark
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
+from pipeline.benchmarks.trajnet_sdd import TRAJNET_SDD
 from pipeline.model_list import PECNET, RPECNET, YNET, label
+from pipeline.report.common import paper_columns
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, dig, is_number,
                                      lookup, lookup_ynet_setting)
 from pipeline.report.short_term_seeds import ShortTermSeeds
 
 VERDICTS = ("holds", "does not hold", "inconclusive", "not measured")
 METRICS = ("ade", "fde")
-YNET_FILE = "ynet_eval.json"
-IND_FILE = "ind_benchmark.json"
+YNET_FILE = SDD_LONG_TERM.metrics_file
+IND_FILE = IND.metrics_file
 SEED_SPREAD_FILE = "baseline_seed_spread.json"
 LONG_TF = 30  # the long-term tables' horizon (s)
 LONG_K = 20  # their K (Y-net: K_e)
 MAIN = {"k_e": LONG_K, "k_a": 1}  # Y-net's main setting: TTST + CWS, K_e = 20, K_a = 1
 RECURRENT_TF = 5  # R-PECNet is PECNet trained for t_f = 5 s, rolled out for longer horizons
 SHORT_K = (20, 5)  # Table 1's two settings of K
-ETHUCY_SCENES = ("eth", "hotel", "univ", "zara1", "zara2")
+ETHUCY_SCENES = tuple(FOLDS)  # Table 2's scenes: the ETH/UCY folds
 ABLATIONS = {"none": "neither", "cws": "CWS only", "ttst_cws": "TTST + CWS"}  # Table 4's settings
 HALF_DIGIT = 0.0005  # "over 77.1 %" holds from 77.05 %: half the last digit the paper prints
+# Our number of a model on a long-term benchmark: (store, model, metric, ablation) -> its term
+LongTermTerms = Callable[..., "Term | Absent"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -459,6 +467,15 @@ def pecnet_ka(store: MetricsStore, metric: str = "ade") -> dict[int, tuple[Any, 
     return found
 
 
+def sdd_long(store: MetricsStore, model: str, metric: str,
+             ablation: str = "ttst_cws") -> Term | Absent:
+    """SDD at t_f = 30 s: Y-net's setting (`ynet_setting`) or a baseline's horizon file, each with
+    its training seeds where it has several."""
+    if model == YNET:
+        return ynet_setting(store, metric, ablation)
+    return baseline(store, model, LONG_TF, metric)
+
+
 def ind(store: MetricsStore, model: str, metric: str, ablation: str = "ttst_cws") -> Term | Absent:
     """inD at t_f = 30 s (ind_benchmark.json: Y-net as ynet_eval.json, baselines under `baselines`)."""
     if model != YNET:
@@ -478,8 +495,10 @@ def over_seeds(per_seed: Sequence[tuple[int, float]]) -> SeedValues | None:
 def short_sdd(store: MetricsStore, model: str, k: int, metric: str,
               short_term: ShortTermSeeds | None = None) -> Term | Absent:
     """Table 1's number, with its spread over the training seeds of Tables 1-2's study runs."""
-    spread = over_seeds(short_term.per_seed("sdd", model, k, metric)) if short_term else None
-    value = lookup(store, "short_term/sdd.json", ("models", model, f"k{k}", metric))
+    spread = (over_seeds(short_term.per_seed(TRAJNET_SDD.dataset, model, k, metric))
+              if short_term else None)
+    value = lookup(store, f"short_term/{TRAJNET_SDD.summary_file}",
+                   ("models", model, f"k{k}", metric))
     return term(model, value, spread)
 
 
@@ -488,7 +507,7 @@ def ethucy_avg(store: MetricsStore, model: str, metric: str,
     """The mean of the five scenes' means (as Table 2's AVG row), when all five were measured.
     Its value per training seed: the average with each fold's number at that seed, over the seeds
     every fold trained with several seeds has (a fold with one seed stays fixed)."""
-    values = [lookup(store, f"short_term/ethucy_{scene}.json", ("models", model, metric))
+    values = [lookup(store, f"short_term/{FOLDS[scene].summary_file}", ("models", model, metric))
               for scene in ETHUCY_SCENES]
     absent = first_absent(values)
     if absent is not None:
@@ -571,21 +590,18 @@ def strongest(entries: Iterable[tuple[str, float]]) -> Term:
 # The rules
 
 
-def better_by(store: MetricsStore, paper: Mapping, dataset: str,
-              over: Mapping[str, float], exact: bool = False) -> Outcome:
-    """Long term, t_f = 30 s: PECNet's error exceeds Y-net's by `over` (per metric, the paper's
-    convention, 0: the direction only) beyond the seed spread; both metrics shown."""
+def better_by(store: MetricsStore, paper: Mapping, benchmark: LongTermBenchmark,
+              terms: LongTermTerms, over: Mapping[str, float], exact: bool = False) -> Outcome:
+    """Long term, t_f = 30 s, on `benchmark` (our numbers: `terms`): PECNet's error exceeds
+    Y-net's by `over` (per metric, the paper's convention, 0: the direction only) beyond the seed
+    spread; both metrics shown."""
     def find(metric: str, model: str) -> Term | Absent:
-        if dataset == "ind":
-            return ind(store, model, metric)
-        if model == YNET:
-            return ynet_setting(store, metric)
-        return baseline(store, model, LONG_TF, metric)
+        return terms(store, model, metric)
 
-    pecnet_label, ynet_label = label(PECNET), label(YNET)
+    dataset = benchmark.paper_key
     found = {m: (find(m, PECNET), find(m, YNET)) for m in METRICS}
-    paper_lines = [versus(m.upper(), pecnet_label, paper_long(paper, dataset, PECNET, m),
-                          ynet_label, paper_long(paper, dataset, YNET, m), "px", 2)
+    paper_lines = [versus(m.upper(), label(PECNET), paper_long(paper, dataset, PECNET, m),
+                          label(YNET), paper_long(paper, dataset, YNET, m), "px", 2)
                    for m in METRICS]
     absent = first_absent(v for pair in found.values() for v in pair)
     if absent is not None:
@@ -599,17 +615,17 @@ def better_by(store: MetricsStore, paper: Mapping, dataset: str,
 
 def check_over_50(store: MetricsStore, paper: Mapping,
                   short_term: ShortTermSeeds | None = None) -> Outcome:
-    return better_by(store, paper, "sdd", {"ade": 0.50}, exact=True)
+    return better_by(store, paper, SDD_LONG_TERM, sdd_long, {"ade": 0.50}, exact=True)
 
 
 def check_intro_sdd(store: MetricsStore, paper: Mapping,
                     short_term: ShortTermSeeds | None = None) -> Outcome:
-    return better_by(store, paper, "sdd", {"ade": 0.506, "fde": 0.771})
+    return better_by(store, paper, SDD_LONG_TERM, sdd_long, {"ade": 0.506, "fde": 0.771})
 
 
 def check_ind(store: MetricsStore, paper: Mapping,
               short_term: ShortTermSeeds | None = None) -> Outcome:
-    return better_by(store, paper, "ind", {"ade": 0.0, "fde": 0.0})
+    return better_by(store, paper, IND, ind, {"ade": 0.0, "fde": 0.0})
 
 
 def check_horizon_gap(store: MetricsStore, paper: Mapping,
@@ -641,7 +657,7 @@ def check_recurrent(store: MetricsStore, paper: Mapping,
     paper_lines = [f"Table 3 (30 s) ADE, {name}: "
                    f"R-PECNet {paper_long(paper, d, RPECNET, 'ade'):.2f} "
                    f"vs PECNet {paper_long(paper, d, PECNET, 'ade'):.2f} px"
-                   for d, name in (("sdd", "SDD"), ("ind", "inD"))]
+                   for d, name in ((b.paper_key, b.label) for b in (SDD_LONG_TERM, IND))]
     horizons = [h for h in horizons_measured(store) if h > RECURRENT_TF]
     found = {h: (baseline(store, RPECNET, h), baseline(store, PECNET, h)) for h in horizons}
     absent = first_absent(v for pair in found.values() for v in pair)
@@ -655,14 +671,15 @@ def check_recurrent(store: MetricsStore, paper: Mapping,
     return decide(margins, "px", 1, ours, paper_lines)
 
 
-def ablation_gain(store: MetricsStore, paper: Mapping, dataset: str, without: str, with_: str,
+def ablation_gain(store: MetricsStore, paper: Mapping, benchmark: LongTermBenchmark,
+                  terms: LongTermTerms, without: str, with_: str,
                   claimed: Mapping[str, float]) -> Outcome:
-    """Y-net's error without a component (`without`) exceeds its error with it (`with_`) by the
-    `claimed` size per metric."""
+    """Y-net's error on `benchmark` (our numbers: `terms`) without a component (`without`)
+    exceeds its error with it (`with_`) by the `claimed` size per metric."""
     def find(metric: str, ablation: str) -> Term | Absent:
-        if dataset == "ind":
-            return ind(store, YNET, metric, ablation)
-        return ynet_setting(store, metric, ablation)
+        return terms(store, YNET, metric, ablation)
+
+    dataset = benchmark.paper_key
 
     def line(metric: str, before: float, after: float) -> str:
         return (f"{metric.upper()}: {before:.2f} ({ABLATIONS[without]}) \u2192 {after:.2f} px: "
@@ -682,17 +699,18 @@ def ablation_gain(store: MetricsStore, paper: Mapping, dataset: str, without: st
 
 def check_ttst_sdd(store: MetricsStore, paper: Mapping,
                    short_term: ShortTermSeeds | None = None) -> Outcome:
-    return ablation_gain(store, paper, "sdd", "cws", "ttst_cws", {"ade": 0.091, "fde": 0.304})
+    return ablation_gain(store, paper, SDD_LONG_TERM, sdd_long, "cws", "ttst_cws",
+                         {"ade": 0.091, "fde": 0.304})
 
 
 def check_ttst_ind(store: MetricsStore, paper: Mapping,
                    short_term: ShortTermSeeds | None = None) -> Outcome:
-    return ablation_gain(store, paper, "ind", "cws", "ttst_cws", {"ade": 0.185, "fde": 0.350})
+    return ablation_gain(store, paper, IND, ind, "cws", "ttst_cws", {"ade": 0.185, "fde": 0.350})
 
 
 def check_cws_ade(store: MetricsStore, paper: Mapping,
                   short_term: ShortTermSeeds | None = None) -> Outcome:
-    return ablation_gain(store, paper, "sdd", "none", "cws", {"ade": 0.243})
+    return ablation_gain(store, paper, SDD_LONG_TERM, sdd_long, "none", "cws", {"ade": 0.243})
 
 
 def round_spreads(settings: Sequence[Measured], main: Measured | Absent) -> tuple[list[float], str] | None:
@@ -742,8 +760,8 @@ def check_cws_fde(store: MetricsStore, paper: Mapping,
 def check_ka(store: MetricsStore, paper: Mapping,
              short_term: ShortTermSeeds | None = None) -> Outcome:
     """At every K_e of the K_a grid, ADE falls at each step up in K_a."""
-    ka = [(c["k_a"], c["ade"]) for c in paper["sdd_long"]["columns"]
-          if (c["dataset"], c["model"]) == ("sdd", YNET)]
+    ka = [(c["k_a"], c["ade"]) for c in paper_columns(paper["sdd_long"], SDD_LONG_TERM)
+          if c["model"] == YNET]
     paper_lines = [f"Table 3, SDD, K_e = {LONG_K}, ADE: " + " \u2192 ".join(f"{v:.2f}" for _, v in ka)
                    + f" px (K_a = {', '.join(str(k) for k, _ in ka)}); Figure 5: no published numbers"]
     record = store.record(YNET_FILE)
@@ -871,7 +889,7 @@ def check_ethucy_best(store: MetricsStore, paper: Mapping,
     paper_lines = [f"AVG {m.upper()}: " + best_line(
         ((e["label"], e[m]["avg"]) for e in entries if e["model"] != YNET),
         paper_ethucy(paper, YNET)[m]["avg"], 2) for m in METRICS]
-    others = other_models(store, f"short_term/ethucy_{ETHUCY_SCENES[0]}.json")
+    others = other_models(store, f"short_term/{FOLDS[ETHUCY_SCENES[0]].summary_file}")
     if isinstance(others, Absent):
         return not_measured(others, paper=paper_lines)
     ynet = {f"AVG {m.upper()}": ethucy_avg(store, YNET, m, short_term) for m in METRICS}

@@ -1,6 +1,7 @@
 """What the report's parts share: the paper's models (those this pipeline runs, their series
-labels and colours, then every registered model's), the long-term tables' horizon and K_e, the
-relative difference, the videos' order, and the slot a figure is drawn into.
+labels and colours, then every registered model's), the long-term tables' horizon and K_e, a
+benchmark's columns of the paper's long-term tables, the relative difference, the videos' order,
+and the slot a figure is drawn into.
 
 The lowest module of the page: its parts (`tables`, `series`, `figures`, `seed_spread`,
 `data_and_segmentation`, `run_provenance`) and their assembler `pipeline.report.page` import it;
@@ -12,16 +13,19 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pipeline.model_list import PAPER_MODEL_NAMES, ours_first
 from pipeline.models import ModelEntry, all_models
+
+if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.benchmarks.base import Benchmark
 
 METRICS = ("ade", "fde")
 # The paper's models this pipeline trains or evaluates with stages of their own; any other model
 # of the paper is "paper only". Every model registered in params.yaml `models` (README "Your model
 # here"; constant velocity is one) follows them: `horizon_models`, `model_colours`.
 PIPELINE_MODELS = frozenset(PAPER_MODEL_NAMES)
-DATASETS = {"sdd": "SDD", "ind": "inD"}
 LONG_TERM_TF = 30  # the long-term tables' horizon (s)
 LONG_TERM_KE = 20  # and their K_e (baselines: K)
 
@@ -44,6 +48,11 @@ def model_colours(registered: Mapping[str, ModelEntry]) -> dict[str, str]:
 # The paper's models alone (no registry at hand: a figure's or a table's default).
 HORIZON_MODELS = horizon_models({})
 MODEL_COLOURS = model_colours({})
+
+
+def paper_columns(spec: Mapping, benchmark: Benchmark) -> list[Mapping]:
+    """The columns of a paper table's `spec` (Tables 3-4) that are `benchmark`'s."""
+    return [c for c in spec["columns"] if c["dataset"] == benchmark.paper_key]
 
 
 def relative_difference(ours: float, paper: float | None) -> float | None:

@@ -29,6 +29,7 @@ from typing import Any
 
 import yaml
 
+from pipeline.benchmarks.registry import long_term
 from pipeline.model_list import PECNET, YNET
 from pipeline.report.lookups import Absent, Measured, MetricsStore, as_measured, dig, is_number
 
@@ -58,8 +59,6 @@ VERDICTS = ("match", *CAUSES)  # "match": within `far` under the headline protoc
 FIELDS = ("measured_by", "source", "protocol")
 BUDGET_CLOSES = 0.5  # "budget" names the cause where the longest run closes at least this share
 SHORT_TERM_SCORES = "beyond/short_term.json"
-LONG_TERM_SCORES = "beyond/long_term.json"
-IND_SCORES = "beyond/ind.json"
 SEED_SPREAD_FILE = "baseline_seed_spread.json"
 # Upstream PECNet's test-set epoch selection, retrained per ETH/UCY fold (a compat diagnostic).
 TEST_SELECTION_FILE = "short_term/pecnet_test_selection/{benchmark}.json"
@@ -280,14 +279,14 @@ def test_selected_score(store: MetricsStore, benchmark: str, model: str, metric:
 
 def long_term_score(store: MetricsStore, dataset: str, model: str, k_a: int, key: str,
                     t_f: int) -> Measured | Absent:
-    """Table 3's stored score: SDD baselines on the horizon table, Y-net on the release's windows
-    (its main setting, K_a = 1 only), inD from its own file."""
+    """Table 3's stored score (`dataset`: its column's) where the benchmark keeps it: SDD
+    baselines on the horizon table, Y-net on the release's windows (its main setting, K_a = 1
+    only), inD from its own file."""
     if k_a != 1:
         return Absent("scored at K_a = 1 only", "missing")
-    if dataset == "ind":
-        return stored_score(store, IND_SCORES, ("benchmarks", "ind", "models", model), key)
     table = f"release_tf{t_f}" if model == YNET else f"tf{t_f}"
-    return stored_score(store, LONG_TERM_SCORES, ("tables", table, "models", model), key)
+    rel, path = long_term(dataset).stored_scores(model, table)
+    return stored_score(store, rel, path, key)
 
 
 def mean_of(values: list[Measured | Absent | None], what: str) -> Measured | Absent | None:

@@ -10,8 +10,10 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.model_list import PECNET, YNET, label
 from pipeline.report.common import HORIZON_MODELS, LONG_TERM_TF
+from pipeline.report.common import HORIZON_MODELS, LONG_TERM_TF, paper_columns
 from pipeline.report.compat import compat_rows
 from pipeline.report.diagnostics import HEADLINE, TITLE as DIAGNOSTICS_TITLE, diagnostics_from_store
 from pipeline.report.lookups import (Absent, Measured, MetricsStore, as_measured, is_number, lookup,
@@ -93,15 +95,14 @@ def pecnet_ka_series(store: MetricsStore) -> Series:
 
 def paper_long_term_points(paper: Mapping) -> dict[str, float]:
     """Table 3's SDD ADE at t_f = 30 s, K_a = 1 per model: the only published horizon points."""
-    return {c["model"]: c["ade"] for c in paper["sdd_long"]["columns"]
-            if c["dataset"] == "sdd" and c["k_a"] == 1}
+    return {c["model"]: c["ade"] for c in paper_columns(paper["sdd_long"], SDD_LONG_TERM)
+            if c["k_a"] == 1}
 
 
 def paper_long_term_cells(paper: Mapping) -> dict[str, dict[str, float]]:
     """Table 3's SDD ADE and FDE at t_f = 30 s, K_a = 1, per model."""
     return {c["model"]: {"label": c["label"], "ade": c["ade"], "fde": c["fde"]}
-            for c in paper["sdd_long"]["columns"]
-            if c["dataset"] == "sdd" and c["k_a"] == 1}
+            for c in paper_columns(paper["sdd_long"], SDD_LONG_TERM) if c["k_a"] == 1}
 
 
 def diagnostics_section(store: MetricsStore, paper: Mapping,
@@ -122,8 +123,8 @@ def diagnostics_section(store: MetricsStore, paper: Mapping,
 
 def paper_ka_points(paper: Mapping) -> list[tuple[int, float]]:
     """Table 3's SDD Y-net ADE at K_e = 20 for each K_a."""
-    return [(c["k_a"], c["ade"]) for c in paper["sdd_long"]["columns"]
-            if c["dataset"] == "sdd" and c["model"] == YNET]
+    return [(c["k_a"], c["ade"]) for c in paper_columns(paper["sdd_long"], SDD_LONG_TERM)
+            if c["model"] == YNET]
 
 
 def plot_rows(series: list[Series], x_name: str) -> list[dict[str, float]]:

@@ -12,14 +12,16 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from pipeline.benchmarks.ethucy import FOLDS
+from pipeline.benchmarks.registry import SHORT_TERM
 from pipeline.model_list import SHORT_TERM_MODELS
 from pipeline.report.lookups import MetricsStore, dig, is_number
 
 HEADLINE_RUN = "short_term/runs/{dataset}_{model}.json"  # in the metrics store
 HEADLINE_CPU = "not recorded in its metrics"
 STUDY_RUN = "{dataset}_{model}_seed{seed}.json"  # in the studies store
-ETHUCY_FOLDS = ("eth", "hotel", "univ", "zara1", "zara2")
-SEEDED_MODELS = SHORT_TERM_MODELS  # the study trains each of them with several seeds
+ETHUCY_FOLDS = tuple(FOLDS)  # their average is Table 2's AVG row
+SEEDED_MODELS = (SGAN, PECNET, YNET)
 
 
 @dataclass(frozen=True)
@@ -102,7 +104,7 @@ def short_term_seeds(metrics: MetricsStore, studies: MetricsStore,
                      headline_seed: int) -> ShortTermSeeds:
     return ShortTermSeeds({(dataset, model): seed_runs(metrics, studies, dataset, model,
                                                        headline_seed)
-                           for dataset in ("sdd", *ETHUCY_FOLDS) for model in SEEDED_MODELS})
+                           for dataset in SHORT_TERM for model in SEEDED_MODELS})
 
 
 def seed_rows(seeds: ShortTermSeeds, k: int = 20) -> list[dict[str, Any]]:

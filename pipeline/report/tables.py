@@ -13,9 +13,11 @@ from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
+from pipeline.benchmarks.registry import long_term
+from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.model_list import YNET
 from pipeline.models import ModelEntry
-from pipeline.report.common import (DATASETS, LONG_TERM_KE, LONG_TERM_TF, METRICS, PIPELINE_MODELS,
+from pipeline.report.common import (LONG_TERM_KE, LONG_TERM_TF, METRICS, PIPELINE_MODELS,
                                     relative_difference)
 from pipeline.report.lookups import Absent, Measured, MetricsStore, lookup, lookup_grid
 from pipeline.report.provenance import (PROTOCOLS, BudgetPoint, CellSource, SourceNote, Why,
@@ -23,7 +25,7 @@ from pipeline.report.provenance import (PROTOCOLS, BudgetPoint, CellSource, Sour
                                         seed_range,
                                         short_term_score, source_notes, test_selected_score,
                                         under_protocol, why_differs, with_provenance)
-from pipeline.report.budget import LONG_TERM_BENCHMARK, BudgetRun, budget_point
+from pipeline.report.budget import BudgetRun, budget_point
 from pipeline.report.series import Series
 from pipeline.report.short_term_seeds import ShortTermSeeds
 
@@ -283,19 +285,15 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
                  spec["unit"], 3, tuple(columns), tuple(rows))
 
 
-def long_term_file(dataset: str) -> str:
-    return "ynet_eval.json" if dataset == "sdd" else f"{dataset}_benchmark.json"
-
-
 def find_long_term(store: MetricsStore, c: Mapping, metric: str,
                    profile: str | None = None) -> Measured | Absent:
-    """Table 3's cell: baselines from their t_f = 30 file (SDD) or ind_benchmark.json, Y-net by K_a."""
-    model, k_a, rel = c["model"], c["k_a"], long_term_file(c["dataset"])
+    """Table 3's cell: baselines where their benchmark keeps them (SDD: their t_f = 30 file; inD:
+    ind_benchmark.json), Y-net by K_a from the benchmark's `metrics_file`."""
+    benchmark = long_term(c["dataset"])
+    model, k_a, rel = c["model"], c["k_a"], benchmark.metrics_file
     if model != YNET:
-        if c["dataset"] == "sdd":
-            return lookup(store, f"baselines/{model}_tf{LONG_TERM_TF}.json", (metric,),
-                          t_f=LONG_TERM_TF, expect={"k": LONG_TERM_KE})
-        return lookup(store, rel, ("baselines", model, metric), t_f=LONG_TERM_TF,
+        baseline_rel, keys = benchmark.baseline_metrics(model, LONG_TERM_TF)
+        return lookup(store, baseline_rel, (*keys, metric), t_f=LONG_TERM_TF,
                       expect={"k": LONG_TERM_KE})
     if k_a == 1:
         return lookup(store, rel, ("main", metric), t_f=LONG_TERM_TF,
@@ -311,11 +309,13 @@ def find_long_term_joint(store: MetricsStore, c: Mapping, metric: str,
 
 
 def with_registered(spec: Mapping, registered: Mapping[str, ModelEntry]) -> dict:
-    """Table 3's spec with a column per registered model after the paper's SDD columns: no paper
-    value (the paper never ran it), ours from `baselines/<name>_tf30.json` as for a baseline."""
+    """Table 3's spec with a column per registered model after the paper's SDD columns (the
+    benchmark they run on): no paper value (the paper never ran it), ours from
+    `baselines/<name>_tf30.json` as for a baseline."""
     cols = list(spec["columns"])
-    at = max((i + 1 for i, c in enumerate(cols) if c["dataset"] == "sdd"), default=len(cols))
-    added = [{"dataset": "sdd", "model": name, "label": entry.label, "k_a": 1, "ade": None,
+    key = SDD_LONG_TERM.paper_key
+    at = max((i + 1 for i, c in enumerate(cols) if c["dataset"] == key), default=len(cols))
+    added = [{"dataset": key, "model": name, "label": entry.label, "k_a": 1, "ade": None,
               "fde": None, "registered": True} for name, entry in registered.items()]
     return {**spec, "columns": cols[:at] + added + cols[at:]}
 
@@ -336,17 +336,20 @@ def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams,
             source = (c.get("cells") or {}).get(metric)  # a registered model has no paper cell
             own = under_protocol(source.protocol, metric, lambda key, c=c: long_term_score(
                 store, c["dataset"], c["model"], c["k_a"], key, LONG_TERM_TF)) if source else None
-            sdd = (c["dataset"], c["k_a"]) == ("sdd", 1)
-            seeds = seed_range(store, c["model"], LONG_TERM_TF, metric) if sdd else None
+            benchmark = long_term(c["dataset"])
+            studied = bool(benchmark.study_key) and c["k_a"] == 1  # seeds, test selection, budget
+            seeds = seed_range(store, c["model"], LONG_TERM_TF, metric) if studied else None
             selected = (test_selected_score(store, f"tf{LONG_TERM_TF}", c["model"], metric,
-                                            source.protocol) if sdd and source else None)
+                                            source.protocol) if studied and source else None)
             cells.append(paper_cell(
                 c[metric], ours, params, source,
-                f"{DATASETS[c['dataset']]} {c['label']} (K_a = {c['k_a']}) {metric.upper()}", own,
+                f"{benchmark.label} {c['label']} (K_a = {c['k_a']}) {metric.upper()}", own,
                 find_long_term_joint(store, c, metric, profile), seeds, selected,
-                budget_for(budgets, LONG_TERM_BENCHMARK, c["model"], metric, ours) if sdd else None))
+                budget_for(budgets, benchmark.study_key, c["model"], metric, ours)
+                if studied else None))
         rows.append(Row(metric.upper(), tuple(cells)))
-    columns = tuple(Column(DATASETS[c["dataset"]], c["label"], f"K_a = {c['k_a']}") for c in cols)
+    columns = tuple(Column(long_term(c["dataset"]).label, c["label"], f"K_a = {c['k_a']}")
+                    for c in cols)
     registered = [c["label"] for c in cols if c.get("registered")]
     return Table("sdd_long", spec["number"], spec["title"],
                  "t_f = 30 s, t_p = 5 s, K_e = 20 (baselines K = 20). Ours: SDD Y-net from "
@@ -370,19 +373,20 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams,
     for metric in METRICS:
         cells = []
         for c in cols:
-            rel, name = long_term_file(c["dataset"]), c["ablation"]
+            benchmark, name = long_term(c["dataset"]), c["ablation"]
+            rel = benchmark.metrics_file
             ours = lookup(store, rel, ("ablation", name, metric), t_f=LONG_TERM_TF, expect=setting)
             joint = lookup(store, rel, ("ablation", name, f"{metric}_joint"), t_f=LONG_TERM_TF,
                            expect=setting)
             seeds = (seed_range(store, YNET, LONG_TERM_TF, metric)  # seeds: the main setting's
-                     if (c["dataset"], name) == ("sdd", "ttst_cws") else None)
+                     if benchmark.study_key and name == "ttst_cws" else None)
             cells.append(paper_cell(c[metric], ours, params, c["cells"][metric],
-                                    f"{DATASETS[c['dataset']]} {name} {metric.upper()}",
+                                    f"{benchmark.label} {name} {metric.upper()}",
                                     joint=joint, seeds=seeds))
         rows.append(Row(metric.upper(), tuple(cells)))
     tick = {True: "\u2713", False: "\u2717"}
-    columns = tuple(Column(DATASETS[c["dataset"]], f"TTST {tick[c['ttst']]}  CWS {tick[c['cws']]}")
-                    for c in cols)
+    columns = tuple(Column(long_term(c["dataset"]).label,
+                           f"TTST {tick[c['ttst']]}  CWS {tick[c['cws']]}") for c in cols)
     return Table("ttst", spec["number"], spec["title"],
                  "t_f = 30 s, K_e = 20, K_a = 1. Ours: metrics/ynet_eval.json and metrics/ind_benchmark.json, "
                  "key ablation.<none|cws|ttst_cws>.",

@@ -48,9 +48,9 @@ not-run record) and the run record `run_record` builds from it and the scores (t
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -134,6 +134,17 @@ YNET_REPORTED_SETTINGS = ("resize", "kernel_size", "sigma", "crop", "crop_lead_s
                           "batch_size", "learning_rate", "augmentations", "steps_per_epoch",
                           "semantic_classes")
 """The settings a run record shows under `train.settings` (read from the checkpoint)."""
+
+
+def missing_raw_source(benchmark: ShortTermBenchmark, options: Mapping[str, Any],
+                       images: bool) -> str | None:
+    """Why Y-net cannot run on `benchmark` with a stage's `options` (`vars(args)`): the first
+    fetched raw source it reads (`ShortTermBenchmark.raw_sources`) that is not given; None if
+    none is missing."""
+    for source in benchmark.raw_sources(images):
+        if options.get(source.replace("-", "_")) is None:
+            return f"Y-net on {benchmark.dataset} needs --{source}"
+    return None
 
 
 def train_ynet(bench: ShortTermSplits, semantic_maps, sizes, settings: YnetSettings, n_past: int,

@@ -23,9 +23,9 @@ from typing import TYPE_CHECKING
 import pandas as pd
 import torch
 
+from pipeline.data.labels import image_sizes
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
-from pipeline.data.ynet_data import image_sizes
 from pipeline.device import CPU
 from pipeline.preemption import NEVER, Preemption
 from pipeline.runners.ynet_training import scale_waypoints, train

@@ -21,8 +21,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.benchmarks.registry import SHORT_TERM
 from pipeline.config.loading import read_params
-from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.io import write_json
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.report.run_provenance import machine
@@ -35,7 +35,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--model", required=True, choices=TRAINED_BASELINES)
     parser.add_argument("--factor", type=int, required=True, help="x the profile's epochs")
     parser.add_argument("--horizon", type=int, help="long_term_baseline: t_f (s)")
-    parser.add_argument("--dataset", choices=SHORT_TERM_DATASETS,
+    parser.add_argument("--dataset", choices=SHORT_TERM,
                         help="short_term_baseline: the benchmark")
     parser.add_argument("--windows", type=Path, required=True,
                         help="the horizon's table (long-term) or data/short_term (short-term)")

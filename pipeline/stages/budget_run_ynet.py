@@ -22,8 +22,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.benchmarks.registry import SHORT_TERM
 from pipeline.config.loading import read_params
-from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.io import write_json
 from pipeline.report.run_provenance import machine
 from pipeline.runners.budget import YNET_KINDS, BudgetPoint, option_error, run_budget_point
@@ -33,7 +33,7 @@ def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--kind", required=True, choices=list(YNET_KINDS))
     parser.add_argument("--factor", type=int, required=True, help="x the profile's epochs")
-    parser.add_argument("--dataset", choices=SHORT_TERM_DATASETS,
+    parser.add_argument("--dataset", choices=SHORT_TERM,
                         help="short_term_ynet: the benchmark")
     parser.add_argument("--windows", type=Path, required=True,
                         help="the release windows (long-term) or data/short_term (short-term)")

@@ -24,13 +24,12 @@ from pathlib import Path
 
 import torch
 
-from pipeline.benchmarks.registry import short_term
+from pipeline.benchmarks.registry import SHORT_TERM, short_term
 from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json
@@ -41,7 +40,7 @@ from pipeline.runners.short_term import run_record, score_baseline
 @exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
+    parser.add_argument("--dataset", required=True, choices=SHORT_TERM)
     parser.add_argument("--model", required=True, choices=TRAINED_BASELINES)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")

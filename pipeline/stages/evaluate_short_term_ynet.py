@@ -32,18 +32,16 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.benchmarks.registry import short_term
+from pipeline.benchmarks.registry import SHORT_TERM, short_term
 from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
-from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
-from pipeline.model_list import YNET
-from pipeline.runners.short_term import (run_record, score_ynet, ynet_maps, ynet_options,
-                                         ynet_qualitative)
+from pipeline.runners.short_term import (missing_raw_source, run_record, score_ynet, ynet_maps,
+                                         ynet_options, ynet_qualitative)
 from pipeline.runners.ynet_scoring import load_for_scoring
 
 MODEL = YNET
@@ -52,7 +50,7 @@ MODEL = YNET
 @exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
+    parser.add_argument("--dataset", required=True, choices=SHORT_TERM)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--maps", type=Path, required=True,
@@ -78,10 +76,9 @@ def main(argv: list[str] | None = None) -> None:
         write_json(trained, args.metrics)
         print(f"evaluate_short_term_ynet: Y-net not run on {args.dataset}: {reason}")
         return
-    if args.dataset == "sdd" and args.sdd is None:
-        parser.error("Y-net on sdd needs --sdd")
-    if args.dataset != "sdd" and args.ethucy_scenes is None:
-        parser.error(f"Y-net on {args.dataset} needs --ethucy-scenes")
+    missing = missing_raw_source(benchmark, vars(args), images=True)
+    if missing:
+        parser.error(missing)
     params = read_params()
     profile = active_profile(params)
     settings = load_profile(ShortTermModelsParams, "short_term_models", params)

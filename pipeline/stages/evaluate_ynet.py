@@ -27,9 +27,9 @@ from pipeline.config.eval import EvalParams
 from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.ttst import TtstParams
+from pipeline.data.labels import image_sizes
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import to_arrays
-from pipeline.data.ynet_data import image_sizes
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz

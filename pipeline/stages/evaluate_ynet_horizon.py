@@ -70,7 +70,7 @@ def score(args: argparse.Namespace, trained: dict, scoring: SlotScoring) -> None
     from pipeline.device import SCORING, describe, select_device
     from pipeline.runners.ynet_scoring import (evaluate, load_for_scoring, prediction_metadata,
                                                sampling_options)
-    from pipeline.data.ynet_data import image_sizes
+    from pipeline.data.labels import image_sizes
 
     params = read_params()
     eval_params, rounds = scoring.eval, scoring.eval.rounds

@@ -63,7 +63,7 @@ def score(args: argparse.Namespace, trained: dict, scoring: SlotScoring) -> None
     from pipeline.device import SCORING, describe, select_device
     from pipeline.runners.ynet_main import TRAINING_KEYS
     from pipeline.runners.ynet_scoring import evaluation_sequence, load_for_scoring
-    from pipeline.data.ynet_data import image_sizes
+    from pipeline.data.labels import image_sizes
 
     training = {key: index_value(trained, key, kind, args.train_metrics) for key, kind in TRAINING_KEYS}
     eval_params = scoring.eval

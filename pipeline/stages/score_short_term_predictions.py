@@ -5,9 +5,10 @@ miss rate, KDE NLL, off-limits share (SDD: hand labels; ETH/UCY: not road) besid
 truth's, collisions, each as mean and std over the stored rounds and per scene
 (`pipeline.harness.stored_scores`; each benchmark's tables, units and masks: `pipeline.benchmarks`).
 
-Scores `<predictions>/<dataset>/<model>.parquet` for sdd and the five ETH/UCY folds against the
-test windows of the dataset's table in `--windows`; a file that says why nothing was predicted is
-listed with its reason. Params: `score_predictions`, `short_term.n_past`.
+Scores `<predictions>/<dataset>/<model>.parquet` for every short-term benchmark of the registry
+(sdd and the five ETH/UCY folds) against the test windows of the dataset's table in `--windows`;
+a file that says why nothing was predicted is listed with its reason. Params:
+`score_predictions`, `short_term.n_past`.
 
     python -m pipeline.stages.score_short_term_predictions --predictions data/predictions/short_term \
         --windows data/short_term --labels data/labels --scales data/raw/sdd/estimated_scales.yaml \
@@ -19,11 +20,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.benchmarks.registry import SHORT_TERM
 from pipeline.benchmarks.sdd_long_term import read_scales, sdd_label_masks
 from pipeline.config.loading import load_section, read_params
 from pipeline.config.score_predictions import ScorePredictionsParams
 from pipeline.config.short_term import ShortTermParams
-from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.harness.stored_scores import score_benchmarks, short_term_tables
 from pipeline.io import exit_on_bad_intermediate, write_json
 
@@ -44,7 +45,7 @@ def main(argv: list[str] | None = None) -> None:
     params = read_params(args.params)
     settings = load_section(ScorePredictionsParams, "score_predictions", params)
     n_past = load_section(ShortTermParams, "short_term", params).n_past
-    benchmarks = short_term_tables(args.windows, args.predictions, SHORT_TERM_DATASETS, n_past,
+    benchmarks = short_term_tables(args.windows, args.predictions, SHORT_TERM, n_past,
                                    sdd_label_masks(args.labels, settings.forbidden_classes),
                                    read_scales(args.scales), args.scales)
     write_json(score_benchmarks(benchmarks, settings), args.out)

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import torch
 
+from pipeline.benchmarks.registry import SHORT_TERM
 from pipeline.config.loading import (active_profile, load_profile, load_section, profile_entry,
                                      read_params)
 from pipeline.config.pecnet import PecnetConfig
@@ -35,7 +36,6 @@ from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.config.short_term_pecnet_test_selection import ShortTermPecnetTestSelectionParams
 from pipeline.config.train_baseline import TrainBaselineParams
-from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import TRAINING, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.studies.pecnet_test_selection import summary_line
@@ -47,7 +47,7 @@ from pipeline.studies.short_term_test_selection import (MODEL, SWITCH, RetrainSe
 @exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
+    parser.add_argument("--dataset", required=True, choices=SHORT_TERM)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--training-facts", type=Path, required=True,

@@ -21,18 +21,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipeline.benchmarks.registry import short_term
+from pipeline.benchmarks.registry import SHORT_TERM, short_term
 from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
 from pipeline.config.short_term import ShortTermParams
 from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.config.ynet import YnetSettings
-from pipeline.dataset_list import SHORT_TERM_DATASETS
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.model_list import YNET
 from pipeline.preemption import Preemption, exit_when_stopped
-from pipeline.runners.short_term import not_run_record, train_ynet, training_record, ynet_maps
+from pipeline.runners.short_term import (missing_raw_source, not_run_record, train_ynet,
+                                         training_record, ynet_maps)
 
 MODEL = YNET
 
@@ -41,7 +41,7 @@ MODEL = YNET
 @exit_on_bad_intermediate
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", required=True, choices=SHORT_TERM_DATASETS)
+    parser.add_argument("--dataset", required=True, choices=SHORT_TERM)
     parser.add_argument("--windows", type=Path, required=True,
                         help="short_term_windows output folder (tables and ETH/UCY scene index)")
     parser.add_argument("--maps", type=Path, required=True,
@@ -57,13 +57,14 @@ def main(argv: list[str] | None = None) -> None:
         write_json(not_run_record(args.dataset, MODEL, profile, settings), args.metrics)
         print(f"train_short_term_ynet: Y-net not run on {args.dataset} in the {profile} profile")
         return
-    if args.dataset == "sdd" and args.sdd is None:
-        parser.error("Y-net on sdd needs --sdd")
+    benchmark = short_term(args.dataset)
+    missing = missing_raw_source(benchmark, vars(args), images=False)
+    if missing:
+        parser.error(missing)
     windows = load_section(ShortTermParams, "short_term", params)
     runtime = load_section(RuntimeParams, "runtime", params)
     device = select_device(runtime.device, purpose=TRAINING)
 
-    benchmark = short_term(args.dataset)
     bench = benchmark.load(args.windows, windows.n_past, windows.n_future)
     scene_ids = set(bench.train.scene_id) | set(bench.val.scene_id) | set(bench.test.scene_id)
     maps, classes = ynet_maps(args.maps)

@@ -27,8 +27,8 @@ from pipeline.config.runtime import RuntimeParams
 from pipeline.config.windows import WindowParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.config.ynet_horizons import HorizonParams
+from pipeline.data.labels import image_sizes
 from pipeline.data.semantic_maps import load_semantic_maps
-from pipeline.data.ynet_data import image_sizes
 from pipeline.device import TRAINING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped

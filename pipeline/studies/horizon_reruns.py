@@ -14,9 +14,9 @@ from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
+from pipeline.data.labels import image_sizes
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.window_table import WindowArrays
-from pipeline.data.ynet_data import image_sizes
 from pipeline.studies.horizon_analysis import SUBJECT, Errors, truncated_arrays
 from pipeline.harness.metrics import window_errors
 from pipeline.runners.ynet_scoring import Sampling, load_for_scoring, predict_samplings
