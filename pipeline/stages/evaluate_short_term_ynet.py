@@ -40,6 +40,7 @@ from pipeline.config.short_term_models import ShortTermModelsParams
 from pipeline.device import SCORING, describe, select_device
 from pipeline.harness.predictions import PredictionRounds, write_no_predictions
 from pipeline.io import exit_on_bad_intermediate, write_json, write_npz
+from pipeline.model_list import YNET
 from pipeline.runners.short_term import (missing_raw_source, run_record, score_ynet, ynet_maps,
                                          ynet_options, ynet_qualitative)
 from pipeline.runners.ynet_scoring import load_for_scoring
