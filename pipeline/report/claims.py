@@ -599,9 +599,10 @@ def better_by(store: MetricsStore, paper: Mapping, benchmark: LongTermBenchmark,
         return terms(store, model, metric)
 
     dataset = benchmark.paper_key
+    pecnet_label, ynet_label = label(PECNET), label(YNET)
     found = {m: (find(m, PECNET), find(m, YNET)) for m in METRICS}
-    paper_lines = [versus(m.upper(), label(PECNET), paper_long(paper, dataset, PECNET, m),
-                          label(YNET), paper_long(paper, dataset, YNET, m), "px", 2)
+    paper_lines = [versus(m.upper(), pecnet_label, paper_long(paper, dataset, PECNET, m),
+                          ynet_label, paper_long(paper, dataset, YNET, m), "px", 2)
                    for m in METRICS]
     absent = first_absent(v for pair in found.values() for v in pair)
     if absent is not None:
