@@ -67,6 +67,8 @@ def run(stage, root: Path) -> tuple[dict, float, int]:
         if rel.parts[0] in ('params.yaml',) or not (MAIN / rel).exists():
             continue
         target = root / rel
+        if any(parent.is_symlink() for parent in target.parents if root in parent.parents):
+            continue  # there already, through a linked folder: touching it would touch the checkout
         if target.is_symlink() or target.exists():
             if target.is_symlink() or rel.parts[0] in ('data', 'checkpoints', 'metrics', 'studies', 'reports'):
                 if target.is_dir() and not target.is_symlink():
