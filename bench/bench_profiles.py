@@ -29,8 +29,8 @@ the U-Net 6 s a step); `--steps 3 --windows 4 --stage-steps 1` is the quick look
 on one thread). A busy 2-core machine runs two threads many times slower than one (OpenMP threads
 wait for each other): compare --threads 1 and 2 there. On a GPU, `bench/gpu_check.py` runs this
 and more in one command. `--smoke`: a Y-net of a few channels on a 256 x 256 scene, 2 steps and 2
-windows per profile at K_e 4, the stages' rates on one step or epoch (seconds: the code path, not
-a measurement).
+windows per profile at K_e 4, the stages' rates on one step or epoch, the U-Net 4 channels wide
+(seconds: the code path, not a measurement).
 
 It re-executes itself with glibc malloc told to keep freed memory, as the stages run (dvc.yaml's
 GLIBC_TUNABLES; see bench/bench_ynet.py).

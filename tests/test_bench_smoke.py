@@ -1,7 +1,9 @@
 """Every speed benchmark `bench/bench_*.py` runs with `--smoke` (tiny sizes, synthetic inputs, one
 thread, seconds) and prints its own result lines, so a changed signature breaks a test, not the next
 person who runs the benchmark; a new benchmark without a smoke mode, or without its result lines
-in `RESULT_LINES`, fails here. The experiments of
+in `RESULT_LINES`, fails here. They run in this process as `python -m` runs them (`runpy`): a
+subprocess each spent more CPU importing torch again than the benchmark's smoke run;
+`test_a_benchmark_without_its_inputs_exits_needs_pipeline` still starts one. The experiments of
 `docs/experiments/` need trained models to run at all: they are only imported. A missing pipeline
 output makes a benchmark exit `NEEDS_PIPELINE`, naming the file and the stage (`make bench`)."""
 
@@ -10,11 +12,13 @@ from __future__ import annotations
 import importlib
 import os
 import re
+import runpy
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+import torch
 
 from bench import common
 from bench.bench_ynet import KEEP_FREED_MEMORY
@@ -54,16 +58,45 @@ def missing_results(name: str, stdout: str) -> list[str]:
     return [pattern for pattern in RESULT_LINES[name] if not re.search(pattern, stdout, re.M)]
 
 
+def flushes_denormals() -> bool:
+    """Whether torch flushes denormals to zero now (`torch.set_flush_denormal` has no getter)."""
+    return torch.tensor([1e-39]).mul(1.0).item() == 0.0
+
+
+@pytest.fixture
+def as_a_fresh_process(monkeypatch):
+    """What `python -m bench.<name>` had in a process of its own: the repository as working folder
+    and the malloc setting as the stages run (so `keep_freed_memory` does not re-execute, which here
+    would replace pytest: refused). Torch's threads, denormal mode and random state the benchmark
+    sets are put back for the tests after it."""
+    monkeypatch.chdir(ROOT)
+    monkeypatch.setenv("GLIBC_TUNABLES", KEEP_FREED_MEMORY)
+    monkeypatch.setattr(os, "execve", lambda *args: pytest.fail(f"re-executes: {args[1]}"))
+    threads, flushing = torch.get_num_threads(), flushes_denormals()
+    with torch.random.fork_rng(devices=[]):
+        yield
+    torch.set_num_threads(threads)
+    torch.set_flush_denormal(flushing)
+
+
+def run_module(name: str, argv: list[str]) -> None:
+    """`python -m name *argv`, in this process; an exit other than 0 fails."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(sys, "argv", [name, *argv])
+        try:
+            runpy.run_module(name, run_name="__main__", alter_sys=True)
+        except SystemExit as stop:
+            assert stop.code in (None, 0), f"exit {stop.code}"
+
+
 @pytest.mark.parametrize("script", BENCHMARKS, ids=lambda path: path.stem)
-def test_the_benchmark_runs_with_smoke_and_prints_its_results(script):
+@pytest.mark.filterwarnings("ignore:'bench[.]bench_[a-z_]+' found in sys.modules:RuntimeWarning")
+def test_the_benchmark_runs_with_smoke_and_prints_its_results(script, as_a_fresh_process, capsys):
     if script.name in NEEDS_MIRROR and not MIRROR.exists():
         pytest.skip(f"{MIRROR} not on this machine")
-    env = {**os.environ, "OMP_NUM_THREADS": "1",
-           "GLIBC_TUNABLES": KEEP_FREED_MEMORY}  # as the stages run: no re-execution to set it
-    done = subprocess.run([sys.executable, "-m", f"bench.{script.stem}", "--smoke"], cwd=ROOT,
-                          env=env, capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, f"exit {done.returncode}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
-    assert missing_results(script.stem, done.stdout) == [], done.stdout[-2000:]
+    run_module(f"bench.{script.stem}", ["--smoke"])
+    stdout = capsys.readouterr().out
+    assert missing_results(script.stem, stdout) == [], stdout[-2000:]
 
 
 def test_the_benchmarks_are_found_each_with_its_result_lines():

@@ -3,7 +3,8 @@ then run again as DVC would run it ends with the very outputs of an uninterrupte
 
 Each resumable stage runs in subprocesses on a tiny fixture borrowed from its own tests: once
 uninterrupted (the reference), and once per kill point planted by `tests.fault_injection`, followed
-by a plain re-run of the same command:
+by a plain re-run of the same command. They are forked by `tests.fork_server`, which has torch
+imported: a fresh interpreter spent 3 to 4 of its 5 CPU seconds importing it.
 
 - `step`: at the N-th optimiser step, mid-epoch (nothing was saved since the last epoch's end);
 - `checkpoint`: with the new `last.pt` complete under its temporary name, not yet renamed;
@@ -24,9 +25,11 @@ import json
 import math
 import os
 import re
+import select
 import signal
 import subprocess
 import sys
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -169,20 +172,38 @@ CASES = [(stage, point) for stage in STAGES for point in ("step", "checkpoint", 
 # Running
 
 
-def run(root: Path, args: list[str]) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
-    return subprocess.run([sys.executable, "-m", *args], cwd=root, env=env, capture_output=True,
-                          text=True, timeout=TIMEOUT_S)
+class ForkServer:
+    """`python -m <args>` in `root`, each run a process forked by one `tests.fork_server`."""
+
+    def __init__(self, logs: Path):
+        self.logs, self.runs = logs, 0
+        env = {**os.environ, "PYTHONPATH": str(REPO), "OMP_NUM_THREADS": "1"}
+        self.server = subprocess.Popen([sys.executable, "-m", "tests.fork_server"], cwd=REPO,
+                                       env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                       text=True, start_new_session=True)
+
+    def run(self, root: Path, args: list[str]) -> subprocess.CompletedProcess:
+        self.runs += 1
+        out, err = (self.logs / f"{self.runs}.{name}" for name in ("stdout", "stderr"))
+        self.server.stdin.write(json.dumps({"cwd": str(root), "argv": args, "stdout": str(out),
+                                            "stderr": str(err)}) + "\n")
+        self.server.stdin.flush()
+        if not select.select([self.server.stdout], [], [], TIMEOUT_S)[0]:
+            os.killpg(self.server.pid, signal.SIGKILL)  # the server and its run
+            pytest.fail(f"{args} ran past {TIMEOUT_S} s")
+        reply = self.server.stdout.readline()
+        assert reply, f"the fork server ended (exit {self.server.wait()})"
+        return subprocess.CompletedProcess(args, json.loads(reply)["returncode"],
+                                           out.read_text(), err.read_text())
+
+    def close(self) -> None:
+        self.server.stdin.close()
+        self.server.wait(timeout=60)
 
 
 def tail(done: subprocess.CompletedProcess) -> str:
-    return f"exit {done.returncode}\n--- stdout\n{done.stdout[-2000:]}\n--- stderr\n{done.stderr[-4000:]}"
-
-
-def run_clean(root: Path, stage: Stage, name: str) -> Path:
-    done = run(root, [stage.module, *stage.argv(f"runs/{name}")])
-    assert done.returncode == 0, tail(done)
-    return root / "runs" / name
+    return (f"exit {done.returncode}\n--- stdout\n{done.stdout[-2000:]}\n"
+            f"--- stderr\n{done.stderr[-4000:]}")
 
 
 @dataclass
@@ -197,8 +218,8 @@ class Scenario:
 class Runs:
     """Fixtures built, reference runs made and kill scenarios played once per module."""
 
-    def __init__(self, factory: pytest.TempPathFactory):
-        self.factory = factory
+    def __init__(self, factory: pytest.TempPathFactory, server: ForkServer):
+        self.factory, self.server = factory, server
         self.roots: dict[str, Path] = {}
         self.references: dict[str, Path] = {}
         self.scenarios: dict[tuple[str, str], Scenario] = {}
@@ -210,9 +231,15 @@ class Runs:
             STAGES[name].build(self.roots[base])
         return self.roots[base]
 
+    def run_clean(self, root: Path, stage: Stage, name: str) -> Path:
+        done = self.server.run(root, [stage.module, *stage.argv(f"runs/{name}")])
+        assert done.returncode == 0, tail(done)
+        return root / "runs" / name
+
     def reference(self, name: str) -> Path:
         if name not in self.references:
-            self.references[name] = run_clean(self.root(name), STAGES[name], f"{name}-reference")
+            self.references[name] = self.run_clean(self.root(name), STAGES[name],
+                                                   f"{name}-reference")
         return self.references[name]
 
     def scenario(self, name: str, point: str) -> Scenario:
@@ -221,8 +248,8 @@ class Runs:
             stage, root, folder = STAGES[name], self.root(name), f"{name}-{point}"
             kill = stage.kills[point]
             where = [str(kill.n)] + ([kill.target] if point == "output" else [])
-            killed = run(root, ["tests.fault_injection", point, *where, stage.module,
-                                *stage.argv(f"runs/{folder}")])
+            killed = self.server.run(root, ["tests.fault_injection", point, *where, stage.module,
+                                            *stage.argv(f"runs/{folder}")])
             assert killed.returncode != NOT_REACHED, "kill point not reached\n" + tail(killed)
             assert killed.returncode == -signal.SIGKILL, tail(killed)
             pid = int(re.search(r"fault_injection: pid (\d+) SIGKILL", killed.stderr).group(1))
@@ -232,14 +259,16 @@ class Runs:
                            if Path(path).name == f".last.pt.tmp{pid}" else None}
                     for path in temporary_files(folder_path)}
             epochs_saved = saved_epoch(folder_path / "ck" / "last.pt")
-            resumed = run_clean(root, stage, folder)
+            resumed = self.run_clean(root, stage, folder)
             self.scenarios[key] = Scenario(self.reference(name), resumed, pid, left, epochs_saved)
         return self.scenarios[key]
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory) -> Runs:
-    return Runs(tmp_path_factory)
+def runs(tmp_path_factory) -> Iterator[Runs]:
+    server = ForkServer(tmp_path_factory.mktemp("logs"))
+    yield Runs(tmp_path_factory, server)
+    server.close()
 
 
 # ---------------------------------------------------------------------------------------------
