@@ -277,7 +277,7 @@ def main(argv: list[str] | None = None) -> None:
     image_hw = SMOKE_IMAGE_HW if smoke else IMAGE_HW
     settings, evaluation = profile_settings(params, "paper", args.threads)
     if smoke:
-        settings.batch_size = 2
+        settings = common.tiny_ynet(settings)  # batches of 2, a few channels
     evaluation = dataclasses.replace(evaluation, k_e=20, k_a=1)
     ethucy, ethucy_evaluation, ethucy_options, ethucy_steps = ethucy_setup(params, args.threads)
     ethucy_hw = SMOKE_ETHUCY_IMAGE_HW if smoke else ETHUCY_IMAGE_HW

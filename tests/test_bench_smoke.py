@@ -2,8 +2,9 @@
 thread, seconds) and prints its own result lines, so a changed signature breaks a test, not the next
 person who runs the benchmark; a new benchmark without a smoke mode, or without its result lines
 in `RESULT_LINES`, fails here. They run in this process as `python -m` runs them (`runpy`): a
-subprocess each spent more CPU importing torch again than the benchmark's smoke run;
-`test_a_benchmark_without_its_inputs_exits_needs_pipeline` still starts one. The experiments of
+subprocess each spent more CPU importing torch again than the benchmark's smoke run
+(tests/test_gpu_check.py runs `python -m bench.gpu_check` in a process of its own, re-execution
+included). The experiments of
 `docs/experiments/` need trained models to run at all: they are only imported. A missing pipeline
 output makes a benchmark exit `NEEDS_PIPELINE`, naming the file and the stage (`make bench`)."""
 
@@ -13,7 +14,6 @@ import importlib
 import os
 import re
 import runpy
-import subprocess
 import sys
 from pathlib import Path
 
@@ -79,14 +79,15 @@ def as_a_fresh_process(monkeypatch):
     torch.set_flush_denormal(flushing)
 
 
-def run_module(name: str, argv: list[str]) -> None:
-    """`python -m name *argv`, in this process; an exit other than 0 fails."""
+def run_module(name: str, argv: list[str]) -> int:
+    """`python -m name *argv`, in this process: the exit status it would have had."""
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(sys, "argv", [name, *argv])
         try:
             runpy.run_module(name, run_name="__main__", alter_sys=True)
         except SystemExit as stop:
-            assert stop.code in (None, 0), f"exit {stop.code}"
+            return stop.code if isinstance(stop.code, int) else int(stop.code is not None)
+    return 0
 
 
 @pytest.mark.parametrize("script", BENCHMARKS, ids=lambda path: path.stem)
@@ -94,8 +95,9 @@ def run_module(name: str, argv: list[str]) -> None:
 def test_the_benchmark_runs_with_smoke_and_prints_its_results(script, as_a_fresh_process, capsys):
     if script.name in NEEDS_MIRROR and not MIRROR.exists():
         pytest.skip(f"{MIRROR} not on this machine")
-    run_module(f"bench.{script.stem}", ["--smoke"])
+    status = run_module(f"bench.{script.stem}", ["--smoke"])
     stdout = capsys.readouterr().out
+    assert status == 0, f"exit {status}\n{stdout[-2000:]}"
     assert missing_results(script.stem, stdout) == [], stdout[-2000:]
 
 
@@ -131,11 +133,11 @@ def test_a_missing_output_names_its_stage_and_exits_needs_pipeline(tmp_path, cap
         f"bench_x: needs {tmp_path / 'maps'}: run `dvc repro semantic_maps`"]
 
 
-def test_a_benchmark_without_its_inputs_exits_needs_pipeline(tmp_path):
+def test_a_benchmark_without_its_inputs_exits_needs_pipeline(tmp_path, as_a_fresh_process,
+                                                             capsys):
     """Not in smoke mode, in a folder without data/: the distinct exit `make bench` goes on after."""
-    done = subprocess.run([sys.executable, "-m", "bench.bench_score_predictions",
-                           "--root", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
-                          timeout=300)
-    assert done.returncode == common.NEEDS_PIPELINE, done.stderr[-3000:]
+    status = run_module("bench.bench_score_predictions", ["--root", str(tmp_path)])
+    stdout = capsys.readouterr().out
+    assert status == common.NEEDS_PIPELINE, stdout[-3000:]
     assert (f"needs {tmp_path / 'data/predictions/long_term'}: run `dvc repro score_predictions`"
-            in done.stdout)
+            in stdout)

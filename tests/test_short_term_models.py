@@ -165,16 +165,27 @@ def tiny_params() -> dict:
             "short_term_pecnet_test_selection": {"folds": ["eth"]}}
 
 
+BUILT: list[Path] = []  # the project folder, once built
+
+
 @pytest.fixture(scope="module")
 def project(tmp_path_factory) -> Path:
-    """A project folder after every short-term run the tests need (run once for the module)."""
-    root = tmp_path_factory.mktemp("short_term")
+    """A project folder after every short-term run the tests need: built once a session, and
+    shared with tests/test_short_term_baselines.py (which imports this fixture; its tests write
+    only under compat/)."""
+    torch.set_num_threads(1)
+    if not BUILT:
+        BUILT.append(build_project(tmp_path_factory.mktemp("short_term")))
+    return BUILT[0]
+
+
+def build_project(root: Path) -> Path:
+    """Every short-term run the tests need, under `root`."""
     (root / "params.yaml").write_text(yaml.safe_dump(tiny_params()))
     windows = root / "data" / "short_term"
     write_ethucy(windows)
     write_ethucy_images(root / "ethucy-scenes")
     write_sdd(windows, root / "sdd", root / "semantic_maps")
-    torch.set_num_threads(1)
     runs = root / "metrics" / "short_term" / "runs"
     cwd = Path.cwd()
     try:
