@@ -266,22 +266,36 @@ def write_png(path: Path, colour: tuple[int, int, int]) -> None:
 @pytest.fixture
 def project(tmp_path: Path) -> Path:
     """A working folder with every input of the report stage (metrics written by each test)."""
-    (tmp_path / "metrics").mkdir()
+    return write_project(tmp_path)
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory) -> Path:
+    """One full project, rendered once for the tests that only read what the report wrote (a
+    page each took them a second and a half)."""
+    root = write_project(tmp_path_factory.mktemp("full_project"))
+    full_project(root)
+    return root
+
+
+def write_project(root: Path) -> Path:
+    """Every input of the report stage under `root` but the metrics."""
+    (root / "metrics").mkdir()
     params = yaml.safe_load((REPO / "params.yaml").read_text())
     params["report"] = {"close": 0.05, "far": 0.20}
-    (tmp_path / "params.yaml").write_text(yaml.safe_dump(params))
-    (tmp_path / "manifests").mkdir()
-    (tmp_path / "manifests" / "sdd.sha256").write_text("ab" * 32 + "  annotations/x.txt\n")
-    (tmp_path / "dvc.lock").write_text(yaml.safe_dump({"schema": "2.0", "stages": {
+    (root / "params.yaml").write_text(yaml.safe_dump(params))
+    (root / "manifests").mkdir()
+    (root / "manifests" / "sdd.sha256").write_text("ab" * 32 + "  annotations/x.txt\n")
+    (root / "dvc.lock").write_text(yaml.safe_dump({"schema": "2.0", "stages": {
         "fetch@sdd": {"outs": [{"path": "data/raw/sdd", "md5": "0e5e7977cdd07682f5a28f53a640c3ba.dir",
                                 "nfiles": 86}]},
         "windows": {"params": {"params.yaml": {"windows": params["windows"]}}},
         "train_ynet": {"params": {"params.yaml": {"profile": "cpu", "ynet.cpu": params["ynet"]["cpu"]}}}}}))
-    (tmp_path / "reports" / "data").mkdir(parents=True)
-    (tmp_path / "reports" / "data" / "windows_per_scene.json").write_text(json.dumps(
+    (root / "reports" / "data").mkdir(parents=True)
+    (root / "reports" / "data" / "windows_per_scene.json").write_text(json.dumps(
         {"raw": {"tf30": {"test": {"gates_2": 10}, "train": {"gates_4": 4}}},
          "release": {"tf30": {"test": {"coupa_0": 47}}}}))
-    return tmp_path
+    return root
 
 
 def run_report(root: Path) -> Path:
@@ -486,15 +500,15 @@ def test_report_params_are_typed():
         from_dict(ReportParams, {"close": 0.3, "far": 0.2}, "report")
 
 
-def test_every_cell_is_measured_quoted_or_explained(project):
-    html = full_project(project).read_text()
+def test_every_cell_is_measured_quoted_or_explained(rendered):
+    html = (rendered / "reports/index.html").read_text()
     assert_well_formed(html)
     page = parse(html)
     cells = comparison_cells(page)
     paper = yaml.safe_load(PAPER.read_text())
     n_paper = (sum(2 * len(paper[k]["columns"]) for k in ("sdd_short", "sdd_long", "ttst"))
                + 2 * len(paper["eth_ucy"]["models"]) * (len(ETHUCY_SCENES) + 1))
-    registered = yaml.safe_load((project / "params.yaml").read_text())["models"]
+    registered = yaml.safe_load((rendered / "params.yaml").read_text())["models"]
     assert len(cells) == n_paper + 2 * len(registered)  # Table 3: ADE, FDE of each registered model
     for cell in cells:
         text = " ".join(cell["text"].split())
@@ -516,10 +530,10 @@ def test_every_cell_is_measured_quoted_or_explained(project):
     assert all(c["text"].strip() or c["img"] for c in page.cells), "a blank table cell"
 
 
-def test_no_number_is_invented(project):
+def test_no_number_is_invented(rendered):
     """Every 'ours' number is a value of a metrics file (or Table 2's average of them); every
     'paper' number is in paper_values.yaml."""
-    page = parse(full_project(project).read_text())
+    page = parse((rendered / "reports/index.html").read_text())
     metrics = data_metrics() | model_metrics()
     allowed = formatted(numeric_leaves(metrics))
     for metric in ("ade", "fde"):
@@ -545,10 +559,10 @@ def test_a_missing_metrics_file_is_explained(project):
     assert {c.ours.reason for c in sdd_cells} == {"stage not yet run: metrics/ynet_eval.json missing"}
 
 
-def test_a_status_record_shows_its_reason(project):
-    html = full_project(project).read_text()
+def test_a_status_record_shows_its_reason(rendered):
+    html = (rendered / "reports/index.html").read_text()
     assert "inD not provided: set data.ind.path" in html
-    store = load_metrics(project / "metrics", "metrics")
+    store = load_metrics(rendered / "metrics", "metrics")
     cell = find_long_term(store, {"dataset": "ind", "model": "pecnet", "k_a": 1}, "ade")
     assert isinstance(cell, Absent) and cell.kind == "status"
 
@@ -580,17 +594,16 @@ def test_only_data_stages_give_a_valid_page(project):
     assert all(c["text"].strip() or c["img"] for c in page.cells)
 
 
-def test_plot_series_hold_only_measured_values(project):
-    full_project(project)
-    horizon = json.loads((project / "reports/plots/horizon_ade.json").read_text())
+def test_plot_series_hold_only_measured_values(rendered):
+    horizon = json.loads((rendered / "reports/plots/horizon_ade.json").read_text())
     assert [row["t_f"] for row in horizon] == HORIZONS
     assert horizon[0]["ynet"] == 1.5 * 5 + 3 and horizon[0]["sgan"] == 3.0 * 5
-    ka = json.loads((project / "reports/plots/ka_ade.json").read_text())
+    ka = json.loads((rendered / "reports/plots/ka_ade.json").read_text())
     assert [row["k_a"] for row in ka] == [1, 2, 5]
     assert ka[1] == {"k_a": 2, "ynet_ke5": 55.5, "ynet_ke20": 48.0, "pecnet_k20ka": 73.5}
     for name in ("horizon_ade.png", "ka_ade.png"):
-        assert (project / "reports/figures/report" / name).stat().st_size > 1000
-    assert (project / "reports/figures/gallery/qualitative.png").stat().st_size > 1000
+        assert (rendered / "reports/figures/report" / name).stat().st_size > 1000
+    assert (rendered / "reports/figures/gallery/qualitative.png").stat().st_size > 1000
 
 
 def test_a_broken_qualitative_file_is_reported(project, tmp_path):
@@ -703,10 +716,9 @@ def test_page_renders_in_headless_chromium(project, tmp_path):
     assert broken == ["figures/report/horizon_ade.png"]
 
 
-def test_segmentation_figures_reach_the_page_as_the_committed_gallery_jpegs(project):
-    full_project(project)
-    html = (project / "reports/index.html").read_text()
-    copies = sorted((project / "reports/figures/gallery").glob("segmentation_predictions_*.jpg"))
+def test_segmentation_figures_reach_the_page_as_the_committed_gallery_jpegs(rendered):
+    html = (rendered / "reports/index.html").read_text()
+    copies = sorted((rendered / "reports/figures/gallery").glob("segmentation_predictions_*.jpg"))
     assert [copy.name for copy in copies] == [f"segmentation_predictions_{video}.jpg"
                                               for video in ("coupa_0", "gates_2", "quad_3")]
     for copy in copies:
@@ -749,10 +761,9 @@ def test_a_horizon_not_run_by_the_profile_says_not_run_not_invalid(project):
     assert ">invalid<" not in html
 
 
-def test_headline_metrics_hold_our_ade_and_fde_per_table_and_model(project):
-    full_project(project)
-    headline = project / "reports/headline"
-    main = json.loads((project / "metrics/ynet_eval.json").read_text())["main"]
+def test_headline_metrics_hold_our_ade_and_fde_per_table_and_model(rendered):
+    headline = rendered / "reports/headline"
+    main = json.loads((rendered / "metrics/ynet_eval.json").read_text())["main"]
     ynet = json.loads((headline / "table3_sdd_long/sdd_y_net_k_a_1.json").read_text())
     assert ynet == {"ade": main["ade"]["mean"], "fde": main["fde"]["mean"]}
     files = sorted(headline.rglob("*.json"))
@@ -774,8 +785,8 @@ def seed_spread_rows(html: str) -> list[str]:
     return [" ".join(re.sub(r"<[^>]+>", " ", row).split()) for row in rows]
 
 
-def test_training_seed_spread_table_beside_the_evaluation_round_spread(project):
-    html = full_project(project).read_text()
+def test_training_seed_spread_table_beside_the_evaluation_round_spread(rendered):
+    html = (rendered / "reports/index.html").read_text()
     assert_well_formed(html)
     rows = seed_spread_rows(html.replace("&plusmn;", "±"))
     assert rows[1] == ("over training seeds over evaluation rounds over training seeds over evaluation rounds")
