@@ -50,6 +50,7 @@ import pandas as pd
 
 from pipeline.benchmarks.base import SceneMasks, ScoredTable, class_values
 from pipeline.benchmarks.long_term import LongTermBenchmark
+from pipeline.data.labels import validate_mask
 from pipeline.data.window_table import COLUMNS, WindowArrays, conform, to_arrays
 from pipeline.data.windows import count_windows, cut_pieces, cut_windows
 from pipeline.io import (IntermediateError, atomic_dir, index_value, read_json_index,
@@ -283,9 +284,6 @@ def window_tables(recordings: list[Recording], splits: dict[str, str], n_past: i
 
 def find_masks(labels_dir: Path, recordings: list[Recording]) -> dict[str, np.ndarray]:
     """scene_id -> validated mask (H, W) uint8 for every XX_background_mask.png of `labels_dir`."""
-    # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
-    from pipeline.data.labels import validate_mask
-
     if not labels_dir.is_dir():
         raise IndError(f"data.ind.labels = {labels_dir}: not a folder")
     by_number = {r.recording: r for r in recordings}
