@@ -415,6 +415,31 @@ def write_tiny_unet(path: Path) -> Path:
     return path
 
 
+def test_load_gives_the_windows_and_one_labelled_background_per_location(tmp_path):
+    root = write_ind_copy(tmp_path / "copy", labels=tmp_path / "masks")
+    ind.write(build(root, labels=str(tmp_path / "masks")), tmp_path / "ind", tmp_path / "w.json")
+    assert IND.not_provided(tmp_path / "ind") is None
+    data = IND.load(tmp_path / "ind")
+    assert {split: len(arrays) for split, arrays in data.splits.items()} == EXPECTED["tf30"]
+    assert len(data.base) == sum(EXPECTED["tf5"].values()) and data.base.future.shape[1] == 5
+    assert data.horizon == 30 and data.table == tmp_path / "ind" / "tf30.parquet"
+    assert set(data.sizes) == set(data.backgrounds) == {"ind_loc4_rec00", "ind_loc1_rec07", "ind_loc1_rec08"}
+    assert data.sizes["ind_loc1_rec07"] == IMAGE_HW
+    # recordings 07 and 08 share location 1's background: the first only
+    assert data.finetune_scenes == ["ind_loc1_rec07"] and data.scored_scenes == ["ind_loc4_rec00"]
+    assert all(b.image.is_file() and b.labels.is_file() for b in data.backgrounds.values())
+
+    ind.write(ind.build(IndParams(), WINDOWS), tmp_path / "absent", tmp_path / "w.json")
+    assert IND.not_provided(tmp_path / "absent") == ind.NOT_PROVIDED_REASON
+
+
+def test_at_ind_scale_sets_ynet_resize_and_unet_downsample():
+    tiny = tiny_settings()
+    ynet, segmentation = at_ind_scale(tiny.ind, tiny.ynet, tiny.segmentation)
+    assert ynet == dataclasses.replace(tiny.ynet, resize=0.33) != tiny.ynet
+    assert segmentation == dataclasses.replace(tiny.segmentation, downsample=3) != tiny.segmentation
+
+
 def test_benchmark_not_provided_is_a_record(tmp_path):
     ind.write(ind.build(IndParams(), WINDOWS), tmp_path / "ind", tmp_path / "w.json")
     result, predictions = run_benchmark(tmp_path / "ind", tmp_path / "absent.pt", tmp_path / "ckpt",
