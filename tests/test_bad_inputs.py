@@ -55,7 +55,7 @@ from pipeline.data.window_table import conform, to_arrays
 from pipeline.data.semantic_maps import load_semantic_maps
 from pipeline.data.windows import ReleaseError, raw_windows, validate_release
 from pipeline.io import IntermediateError
-from pipeline.runners import ind as ind_benchmark
+from pipeline.runners import long_term_benchmark
 from pipeline.stages import (evaluate_ind, evaluate_short_term_baseline, evaluate_short_term_ynet,
                              evaluate_ynet, evaluate_ynet_horizon, train_ind, train_short_term_baseline,
                              train_short_term_ynet, train_ynet, train_ynet_horizon, ynet_slot_scoring)
@@ -899,14 +899,14 @@ def test_bad_ind_index_is_named(ind_out, tmp_path, change, message):
 ])
 def test_bad_ind_maps_are_named(ind_out, tmp_path, arrays, message):
     index = ind.read_index(ind_out)
-    path = tmp_path / ind_benchmark.MAPS
+    path = tmp_path / long_term_benchmark.MAPS
     path.parent.mkdir(parents=True)
     good = {name: np.full((6, 4, 5), 1 / 6, np.float32) for name in index["scenes"]}
     np.savez_compressed(path, **good)
-    assert set(ind_benchmark.read_maps(tmp_path, index, ind_out)) == set(good)
+    assert set(long_term_benchmark.read_maps(path, index["scenes"], ind_out / "index.json")) == set(good)
     np.savez_compressed(path, **({"ind_loc4_rec00": good["ind_loc4_rec00"]} | arrays))
     with pytest.raises(IntermediateError, match=rf"^{esc(path)}: " + message.format(d=esc(ind_out))):
-        ind_benchmark.read_maps(tmp_path, index, ind_out)
+        long_term_benchmark.read_maps(path, index["scenes"], ind_out / "index.json")
 
 
 def window_rows(steps: int) -> pd.DataFrame:

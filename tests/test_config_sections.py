@@ -60,7 +60,6 @@ FROM_ELSEWHERE: dict[str, dict[str, str]] = {
 REGISTRY = "runners.baselines: its registry imports every baseline, so both settings classes"
 SHORT_TERM = "runners.short_term: Y-net's and the baselines' short-term runs in one module"
 SHORT_TERM_MODELS = "config.short_term_models: its eval_params builds the eval section's class"
-IND = "runners.ind: inD's segmentation, Y-net and baselines, training and scoring, in one module"
 DEVICE = "device: parses runtime.device names with the section's own check (parse_device_name)"
 AUGMENT = "data.augment (through runners.segmentation): its NO_AUGMENT default"
 NOT_READ: dict[str, dict[str, str]] = {
@@ -77,7 +76,7 @@ NOT_READ: dict[str, dict[str, str]] = {
                                "train_short_term_ynet", "short_term_pecnet_test_selection"],
                               SHORT_TERM_MODELS if section == "eval" else SHORT_TERM)
        for section in ("ttst", "cws", "eval")},
-    "segmentation": {"evaluate_ind": IND, "semantic_maps": AUGMENT},
+    "segmentation": {"semantic_maps": AUGMENT},
 }
 UNCHECKED: dict[str, dict[str, str]] = {
     "windows": {"ynet_slot_scoring": "the stage reads windows.horizons and windows.release_horizon "

@@ -28,10 +28,11 @@ import torch
 import yaml
 
 from pipeline.benchmarks import ind
-from pipeline.runners import ind as ind_benchmark
+from pipeline.runners import long_term_benchmark
+from pipeline.runners.long_term_benchmark import EvalSettings, evaluate_benchmark
+from pipeline.runners.long_term_training import TrainSettings, train_benchmark
 from pipeline.stages import ind_windows
-from pipeline.benchmarks.ind import IndError
-from pipeline.runners.ind import BenchmarkSettings
+from pipeline.benchmarks.ind import IND, IndError, at_ind_scale
 from pipeline.data.labels import MaskError
 from pipeline.config.cws import CwsParams
 from pipeline.config.data import DataParams, IndParams
@@ -44,6 +45,8 @@ from pipeline.config.segmentation import SegmentationParams
 from pipeline.config.sgan import SganConfig
 from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.config.windows import WindowParams
+from pipeline.config.runtime import RuntimeParams
+from pipeline.config.ttst import TtstParams
 from pipeline.config.ynet import YnetSettings
 from pipeline.runners.segmentation import export_model
 from pipeline.data.window_table import COLUMNS, to_arrays
@@ -336,6 +339,44 @@ def test_failed_run_leaves_the_previous_outputs(tmp_path, monkeypatch):
 # The benchmark, with tiny settings
 
 
+@dataclasses.dataclass(frozen=True)
+class BenchmarkSettings:
+    """Training and scoring settings together, as params.yaml's sections give them (`run_benchmark`)."""
+
+    profile: str
+    ind: IndBenchmarkParams
+    ynet: YnetSettings
+    eval: EvalParams
+    ttst: TtstParams
+    cws: CwsParams
+    segmentation: SegmentationParams
+    baseline_configs: dict
+    train_baseline: TrainBaselineParams
+    evaluate_baseline: EvaluateBaselineParams
+    runtime: RuntimeParams = dataclasses.field(default_factory=lambda: RuntimeParams(device="cpu"))
+
+    @property
+    def training(self) -> TrainSettings:  # as stage train_ind builds them
+        ynet, segmentation = at_ind_scale(self.ind, self.ynet, self.segmentation)
+        return TrainSettings(self.profile, ynet, segmentation, self.ind.freeze_encoder_epochs,
+                             self.baseline_configs, self.train_baseline, self.runtime)
+
+    @property
+    def evaluation(self) -> EvalSettings:  # as stage evaluate_ind builds them
+        return EvalSettings(self.profile, self.eval, self.ttst, self.cws, self.evaluate_baseline,
+                            self.train_baseline.threads, self.runtime)
+
+
+def run_benchmark(ind_dir: Path, segmentation_model: Path, checkpoint_dir: Path,
+                  settings: BenchmarkSettings) -> tuple[dict, dict]:
+    """Train, then score: the two stages' runners in one call; returns what `evaluate_benchmark`
+    returns."""
+    trained = train_benchmark(IND, ind_dir, segmentation_model, checkpoint_dir, settings.training)
+    if not trained["provided"]:
+        return trained, {}
+    return evaluate_benchmark(IND, ind_dir, checkpoint_dir, trained, settings.evaluation)
+
+
 def tiny_settings(**changes) -> BenchmarkSettings:
     settings = BenchmarkSettings(
         profile="cpu",
@@ -374,14 +415,39 @@ def write_tiny_unet(path: Path) -> Path:
     return path
 
 
+def test_load_gives_the_windows_and_one_labelled_background_per_location(tmp_path):
+    root = write_ind_copy(tmp_path / "copy", labels=tmp_path / "masks")
+    ind.write(build(root, labels=str(tmp_path / "masks")), tmp_path / "ind", tmp_path / "w.json")
+    assert IND.not_provided(tmp_path / "ind") is None
+    data = IND.load(tmp_path / "ind")
+    assert {split: len(arrays) for split, arrays in data.splits.items()} == EXPECTED["tf30"]
+    assert len(data.base) == sum(EXPECTED["tf5"].values()) and data.base.future.shape[1] == 5
+    assert data.horizon == 30 and data.table == tmp_path / "ind" / "tf30.parquet"
+    assert set(data.sizes) == set(data.backgrounds) == {"ind_loc4_rec00", "ind_loc1_rec07", "ind_loc1_rec08"}
+    assert data.sizes["ind_loc1_rec07"] == IMAGE_HW
+    # recordings 07 and 08 share location 1's background: the first only
+    assert data.finetune_scenes == ["ind_loc1_rec07"] and data.scored_scenes == ["ind_loc4_rec00"]
+    assert all(b.image.is_file() and b.labels.is_file() for b in data.backgrounds.values())
+
+    ind.write(ind.build(IndParams(), WINDOWS), tmp_path / "absent", tmp_path / "w.json")
+    assert IND.not_provided(tmp_path / "absent") == ind.NOT_PROVIDED_REASON
+
+
+def test_at_ind_scale_sets_ynet_resize_and_unet_downsample():
+    tiny = tiny_settings()
+    ynet, segmentation = at_ind_scale(tiny.ind, tiny.ynet, tiny.segmentation)
+    assert ynet == dataclasses.replace(tiny.ynet, resize=0.33) != tiny.ynet
+    assert segmentation == dataclasses.replace(tiny.segmentation, downsample=3) != tiny.segmentation
+
+
 def test_benchmark_not_provided_is_a_record(tmp_path):
     ind.write(ind.build(IndParams(), WINDOWS), tmp_path / "ind", tmp_path / "w.json")
-    result, predictions = ind_benchmark.run_benchmark(tmp_path / "ind", tmp_path / "absent.pt",
-                                                      tmp_path / "ckpt", tiny_settings())
+    result, predictions = run_benchmark(tmp_path / "ind", tmp_path / "absent.pt", tmp_path / "ckpt",
+                                        tiny_settings())
     assert result == {"provided": False, "status": "not provided", "reason": ind.NOT_PROVIDED_REASON}
     assert (tmp_path / "ckpt").is_dir() and predictions == {}
-    ind_benchmark.write_predictions(tmp_path / "stored", predictions, result["reason"])
-    for model in ind_benchmark.IND_MODELS:  # a declared file per model, giving the reason
+    long_term_benchmark.write_predictions(IND, tmp_path / "stored", predictions, result["reason"])
+    for model in long_term_benchmark.MODELS:  # a declared file per model, giving the reason
         stored, metadata = read_predictions(tmp_path / "stored" / f"{model}.parquet")
         assert len(stored) == 0 and metadata["not_run_reason"] == ind.NOT_PROVIDED_REASON
         assert metadata["model"] == model and metadata["unit"] == "px"
@@ -391,7 +457,7 @@ def test_benchmark_smoke_on_the_fixture_with_labels(tmp_path):
     torch.set_num_threads(1)
     root = write_ind_copy(tmp_path / "copy", labels=tmp_path / "masks")
     ind.write(build(root, labels=str(tmp_path / "masks")), tmp_path / "ind", tmp_path / "w.json")
-    result, predictions = ind_benchmark.run_benchmark(
+    result, predictions = run_benchmark(
         tmp_path / "ind", write_tiny_unet(tmp_path / "unet.pt"), tmp_path / "ckpt", tiny_settings())
     assert result["provided"] is True and result["status"] == "ok" and result["t_f"] == 30
     assert result["windows"] == EXPECTED["tf30"] and result["n_windows"] == 2
@@ -412,13 +478,13 @@ def test_benchmark_smoke_on_the_fixture_with_labels(tmp_path):
     json.dumps(result)  # the metrics file holds plain JSON values only
 
     # every round of every model's test predictions stored: scored from the file, the same numbers
-    ind_benchmark.write_predictions(tmp_path / "stored", predictions)
+    long_term_benchmark.write_predictions(IND, tmp_path / "stored", predictions)
     n_past = json.loads((tmp_path / "ind" / "index.json").read_text())["n_past"]
     test = to_arrays(pd.read_parquet(tmp_path / "ind" / "tf30.parquet").query("split == 'test'"),
                      n_past)
     per_round = {"ynet": result["main"]["per_round"],
                  **{model: scores["per_round"] for model, scores in result["baselines"].items()}}
-    assert set(per_round) == set(ind_benchmark.IND_MODELS)
+    assert set(per_round) == set(long_term_benchmark.MODELS)
     for model, rounds in per_round.items():
         stored, metadata = read_predictions(tmp_path / "stored" / f"{model}.parquet")
         assert metadata["benchmark"] == "ind_long_term" and metadata["unit"] == "px"
@@ -479,7 +545,7 @@ def test_dvc_repro_without_and_with_the_path(tmp_path):
                                   "tf5": {"train": 0, "val": 0, "test": 0}}
     benchmark = json.loads((repo / "metrics/ind_benchmark.json").read_text())
     assert benchmark == {"provided": False, "status": "not provided", "reason": windows["reason"]}
-    for model in ind_benchmark.IND_MODELS:  # the declared predictions, empty, giving the reason
+    for model in long_term_benchmark.MODELS:  # the declared predictions, empty, giving the reason
         stored, metadata = read_predictions(repo / "data" / "predictions" / "ind" / f"{model}.parquet")
         assert len(stored) == 0 and metadata["not_run_reason"] == windows["reason"]
 

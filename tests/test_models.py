@@ -468,6 +468,6 @@ def test_a_toy_model_registered_in_a_copy_of_the_repo_reaches_the_report(tmp_pat
     assert [row["t_f"] for row in plots if "mean_speed" in row] == [30]
     section = html[html.index('<h2 id="beyond">'):html.index('<h2 id="data">')]
     assert "<tr><th>Mean-speed walker</th>" in section
-    assert (repo / "reports/headline/table3_sdd_long/sdd_mean_speed_walker_k_a_1.json").is_file()
+    assert (repo / "reports/headline/table3_sdd_long/sdd_mean_speed_ka1.json").is_file()
     assert "release_tf30/ynet: Y-net is not run in this test" in section
     assert time.perf_counter() - t0 < 120

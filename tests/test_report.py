@@ -764,12 +764,16 @@ def test_a_horizon_not_run_by_the_profile_says_not_run_not_invalid(project):
 def test_headline_metrics_hold_our_ade_and_fde_per_table_and_model(rendered):
     headline = rendered / "reports/headline"
     main = json.loads((rendered / "metrics/ynet_eval.json").read_text())["main"]
-    ynet = json.loads((headline / "table3_sdd_long/sdd_y_net_k_a_1.json").read_text())
+    ynet = json.loads((headline / "table3_sdd_long/sdd_ynet_ka1.json").read_text())
     assert ynet == {"ade": main["ade"]["mean"], "fde": main["fde"]["mean"]}
     files = sorted(headline.rglob("*.json"))
     assert len(files) > 5
     assert all(set(json.loads(f.read_text())) <= {"ade", "fde"} for f in files)  # two DVC columns
-    assert not (headline / "table3_sdd_long/ind_y_net_k_a_1.json").exists()  # nothing unmeasured
+    assert not (headline / "table3_sdd_long/ind_ynet_ka1.json").exists()  # nothing unmeasured
+    names = {f.relative_to(headline).as_posix() for f in files}  # model names as the list spells them
+    assert not [name for name in names if any(label in name for label in ("s_gan", "y_net", "r_pe"))]
+    assert {"table4_ttst/sdd_ynet_none.json", "table4_ttst/sdd_ynet_cws.json",
+            "table4_ttst/sdd_ynet_ttst_cws.json"} <= names  # one file per ablation column
 
 
 def test_page_shows_the_params_dvc_lock_recorded_not_params_yaml(project):
@@ -1148,7 +1152,7 @@ def test_metrics_of_another_profile_or_k_are_shown_but_not_compared(project):
     assert {cell.kind for cell in tables["ttst"].rows[0].cells[:3]} == {"mismatch"}
     assert summarize(long_term).counts["mismatch"] == 2 * 4  # ADE, FDE x Y-net K_a 1, 2, 5 and S-GAN
     headline = headline_metrics(tables.values(), [])
-    assert not any("y_net" in name and "sdd" in name and "table3" in name for name in headline)
+    assert not any(name.startswith("table3_sdd_long/sdd_ynet") for name in headline)
     html = run_report(project).read_text()  # the lock of the fixture says profile cpu
     assert "measured with profile = paper; this cell is for profile = cpu" in html
     assert 'data-kind="mismatch"' in html
@@ -1238,7 +1242,7 @@ def test_a_registered_model_gets_a_table_3_column_a_horizon_line_and_beyond_rows
     assert "<tr><th>Toy walker</th>" in horizon and "<tr><th>Not run yet</th>" in horizon
     rows = json.loads((project / "reports/plots/horizon_ade.json").read_text())
     assert [row["toy"] for row in rows] == [0.75 * h for h in HORIZONS]
-    headline = json.loads((project / "reports/headline/table3_sdd_long/sdd_toy_walker_k_a_1.json")
+    headline = json.loads((project / "reports/headline/table3_sdd_long/sdd_toy_ka1.json")
                           .read_text())
     assert headline == {"ade": 22.5, "fde": 2.1 * 22.5}
     assert list(beyond_rows(html))[:6] == ["model", "S-GAN", "PECNet", "R-PECNet",

@@ -227,6 +227,10 @@ AUTHORS = provenance.CellSource("ynet_authors", "Y-net authors' run", "independe
 
 @pytest.mark.parametrize("headline, own, seeds, source, verdict, detail", [
     (0.10, None, None, AUTHORS, "match", ""),
+    (0.20, None, None, AUTHORS, "match", ""),  # exactly `far` off is within it: the ends count
+    (-0.20, None, None, AUTHORS, "match", ""),
+    (0.25, None, None, AUTHORS, "unexplained", "one training seed"),  # just beyond it
+    (0.50, 0.20, None, QUOTED, "protocol", "within 20% under PECNet best endpoint (+20.0 %)"),
     (-0.15, 0.10, None, QUOTED, "match", ""),  # within under both protocols
     (-0.15, 0.40, None, QUOTED, "unexplained",  # the cell's own protocol decides, not the headline
      "+40.0 % under PECNet best endpoint, -15.0 % under our headline; one training seed"),

@@ -19,9 +19,9 @@ from pipeline.config.loading import ParamsError, load_profile, load_section, rea
 from pipeline.config.segmentation import SegmentationParams
 from pipeline.config.semantic import SemanticParams
 from pipeline import checkpoints
-from pipeline.runners.segmentation import downsample_pair, export_model, fingerprint, learning_rate, load_model, pad_to_multiple, scaled_size, train
+from pipeline.runners.segmentation import downsample_pair, encoder_parameters, export_model, finetune, fingerprint, learning_rate, load_model, pad_to_multiple, scaled_size, train
 from pipeline.data.semantic_maps import dequantise, iou_summary, load_semantic_maps, one_hot_map, predicted_labels, quantise
-from pipeline.runners.semantic_maps import build_maps
+from pipeline.runners.semantic_maps import build_maps, predict_map, predict_probabilities
 from ynet.segmentation import (
     N_OUTPUTS,
     PAD_CLASS,
@@ -132,6 +132,46 @@ def tiny_scenes() -> list[tuple[np.ndarray, np.ndarray]]:
         image, labels = downsample_pair(image, labels, 2)
         scenes.append((pad_to_multiple(image, 32), pad_to_multiple(labels, 32, PAD_CLASS)))
     return scenes
+
+
+def weights(parameters) -> list[torch.Tensor]:
+    return [p.detach().clone() for p in parameters]
+
+
+def test_finetune_freezes_the_encoder_for_the_first_epochs():
+    """Frozen epochs leave the encoder's weights and BatchNorm statistics as they were and train
+    the decoder; after them the encoder trains too, and every parameter takes gradients again."""
+    torch.manual_seed(0)
+    model = UNet(UNetConfig(base_channels=4, depth=2))
+    encoder = {id(p) for p in encoder_parameters(model)}
+    decoder = [p for p in model.parameters() if id(p) not in encoder]
+    encoder_before, decoder_before = weights(encoder_parameters(model)), weights(decoder)
+    encoder_buffers = weights([*model.stem.buffers(), *model.downs.buffers()])
+    log = finetune(model, tiny_scenes(), tiny_params(epochs=1), freeze_epochs=1)
+    assert [row["encoder_frozen"] for row in log] == [True]
+    assert all(torch.equal(a, b) for a, b in zip(encoder_before, encoder_parameters(model)))
+    assert all(torch.equal(a, b) for a, b in zip(encoder_buffers, [*model.stem.buffers(),
+                                                                   *model.downs.buffers()]))
+    assert any(not torch.equal(a, b) for a, b in zip(decoder_before, decoder))
+
+    torch.manual_seed(0)
+    model = UNet(UNetConfig(base_channels=4, depth=2))
+    log = finetune(model, tiny_scenes(), tiny_params(epochs=2), freeze_epochs=1)
+    assert [row["encoder_frozen"] for row in log] == [True, False]
+    assert any(not torch.equal(a, b) for a, b in zip(encoder_before, encoder_parameters(model)))
+    assert all(p.requires_grad for p in model.parameters()) and not model.training
+
+
+def test_predict_map_sees_the_downsampled_image_and_returns_the_asked_size():
+    torch.manual_seed(0)
+    model = UNet(UNetConfig(base_channels=4, depth=2)).eval()
+    image, _ = synthetic_scene(60)
+    probs = predict_map(model, image, 2, 32, (45, 45))
+    assert probs.shape == (N_OUTPUTS, 45, 45) and probs.dtype == np.float32
+    np.testing.assert_allclose(probs.sum(axis=0), 1, atol=1e-4)
+    same_size = predict_map(model, image, 2, 32, (30, 30))  # the U-Net's own output, unresized
+    small = cv2.resize(image, (30, 30), interpolation=cv2.INTER_AREA)
+    np.testing.assert_allclose(same_size, predict_probabilities(model, small, 32), atol=1e-6)
 
 
 def test_resume_after_interruption_equals_uninterrupted_run(tmp_path):

@@ -1,8 +1,8 @@
 """The scene segmentation network: a small U-Net that turns an RGB scene into class scores.
 
-Y-net sees a scene only through its semantic map, so this module fixes what the channels mean
-(`CLASS_NAMES`) and provides the network and its Dice loss. Tensors in, tensors out: no files,
-no training loop (that is `pipeline/segmentation.py`).
+Y-net sees a scene only through its semantic map; what its channels mean (`CLASS_NAMES`) is fixed
+in `ynet.classes` (no torch) and named here too, beside the network and its Dice loss. Tensors in,
+tensors out: no files, no training loop (that is `pipeline/segmentation.py`).
 
 The paper uses a U-Net with an ImageNet-pretrained ResNet101 encoder. No pretrained weights are
 available here, so this U-Net is plain PyTorch, trained from scratch, and small enough for a CPU.
@@ -16,20 +16,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-# Channel index == value in the hand-labelled masks (`SDD_semantic_maps/*_mask.png`, values 1-5);
-# channel 0 is the extra "padding" class for pixels outside the image (padding, warp borders).
-# The masks carry no legend and the paper lists the classes in another order (pavement, terrain,
-# structure, tree, road), so the mapping was determined by overlaying each value in its own colour
-# on `reference.jpg` (deathCircle_0, little_0, bookstore_0, gates_1) and looking:
-#   1 sidewalks, brick strips, plazas                      -> pavement
-#   2 asphalt roads, roundabout lanes, bike paths          -> road
-#   3 roofs, buildings, roundabout islands, fountain bases -> structure
-#   4 lawns, bare soil                                      -> terrain
-#   5 tree canopies, palms, bushes                          -> tree
-CLASS_NAMES = ("padding", "pavement", "road", "structure", "terrain", "tree")
-PAD_CLASS = 0
-N_SCENE_CLASSES = 5  # N_c of the paper; the net outputs N_c + 1 channels
-N_OUTPUTS = N_SCENE_CLASSES + 1
+from ynet.classes import CLASS_NAMES, N_OUTPUTS, N_SCENE_CLASSES, PAD_CLASS  # the network's too
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ import pandas as pd
 
 from pipeline.data.window_table import conform
 from pipeline.io import IntermediateError
+from ynet.classes import CLASS_NAMES
 
 
 @dataclass(frozen=True)
@@ -44,10 +45,7 @@ FORBIDDEN_CLASSES = ("structure", "tree")  # where a pedestrian cannot stand (yn
 
 
 def class_values(names: Sequence[str] = FORBIDDEN_CLASSES) -> tuple[int, ...]:
-    """The mask values of class `names` (indices in `ynet.segmentation.CLASS_NAMES`)."""
-    # Imported here: ynet.segmentation imports torch, which reading a table never needs.
-    from ynet.segmentation import CLASS_NAMES
-
+    """The mask values of class `names` (indices in `ynet.classes.CLASS_NAMES`)."""
     unknown = [name for name in names if name not in CLASS_NAMES]
     if unknown:
         raise ValueError(f"unknown class(es) {unknown}; classes are {list(CLASS_NAMES)}")

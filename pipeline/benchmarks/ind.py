@@ -40,7 +40,7 @@ import math
 import re
 import shutil
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -49,15 +49,19 @@ import numpy as np
 import pandas as pd
 
 from pipeline.benchmarks.base import SceneMasks, ScoredTable, class_values
-from pipeline.benchmarks.long_term import LongTermBenchmark
-from pipeline.data.window_table import COLUMNS, WindowArrays, conform, to_arrays
+from pipeline.benchmarks.long_term import Background, LongTermBenchmark, LongTermData
+from pipeline.data.labels import validate_mask
+from pipeline.data.window_table import COLUMNS, WindowArrays, conform, select_split, to_arrays
 from pipeline.data.windows import count_windows, cut_pieces, cut_windows
 from pipeline.io import (IntermediateError, atomic_dir, index_value, read_json_index,
                          write_json)
 
 if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
     from pipeline.config.data import IndParams
+    from pipeline.config.ind_benchmark import IndBenchmarkParams
+    from pipeline.config.segmentation import SegmentationParams
     from pipeline.config.windows import WindowParams
+    from pipeline.config.ynet import YnetSettings
 
 # Columns of the official inD format this stage reads (the files hold more; see the inD
 # documentation: tracks also carry heading, width, length, velocities and accelerations).
@@ -78,6 +82,9 @@ SOURCE = "raw"  # window-table `source`: cut here from the annotations
 RECORDING_FILE = re.compile(r"^(?P<recording>\d{2})_recordingMeta\.csv$")
 MASK_FILE = re.compile(r"^(?P<recording>\d{2})_background_mask\.png$")
 
+UNLABELLED_NOTE = ("no inD label masks (data.ind.labels empty): the SDD-trained U-Net segments the "
+                   "inD backgrounds unchanged (the paper fine-tunes it on labelled train-location "
+                   "backgrounds)")
 NOT_PROVIDED_REASON = (
     "inD is licence-restricted and not redistributed; set data.ind.path in params.yaml to your copy "
     "of the inD release (the folder holding data/XX_tracks.csv) and run `dvc repro`")
@@ -283,9 +290,6 @@ def window_tables(recordings: list[Recording], splits: dict[str, str], n_past: i
 
 def find_masks(labels_dir: Path, recordings: list[Recording]) -> dict[str, np.ndarray]:
     """scene_id -> validated mask (H, W) uint8 for every XX_background_mask.png of `labels_dir`."""
-    # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
-    from pipeline.data.labels import validate_mask
-
     if not labels_dir.is_dir():
         raise IndError(f"data.ind.labels = {labels_dir}: not a folder")
     by_number = {r.recording: r for r in recordings}
@@ -447,6 +451,36 @@ class Ind(LongTermBenchmark):
             metadata["window_table"] = str(table)
         return {**metadata, **extra}
 
+    def not_provided(self, ind_dir: Path) -> str | None:
+        """The index's reason when inD was not provided (None: it was); the index checked first."""
+        index = read_index(ind_dir)
+        return None if index["provided"] else index["reason"]
+
+    def load(self, ind_dir: Path) -> LongTermData:
+        """The t_f = 30 s windows (train / val / test), the t_f = 5 s ones of R-PECNet's PECNet, and
+        every recording's background: the U-Net is fine-tuned on one labelled background per train
+        location and scored on one per test location (recordings of a place share a background)."""
+        index = read_index(ind_dir)
+        long = read_windows(ind_dir, index, index["horizon"])
+        base = read_windows(ind_dir, index, RPECNET_HORIZON)
+        splits = {split: select_split(long, split) for split in IND_SPLITS}
+        empty = [split for split, arrays in splits.items() if len(arrays) == 0]
+        if empty:
+            raise ValueError(f"{ind_dir}: no t_f = {index['horizon']} s windows in split(s) {empty} "
+                             "(test: location 4; val: data.ind.val_recordings); see metrics/ind_windows.json")
+        scenes = index["scenes"]
+        labelled = [name for name, info in scenes.items() if info["labels"]]
+        return LongTermData(
+            index=Path(ind_dir) / "index.json", n_past=index["n_past"], horizon=int(index["horizon"]),
+            table=Path(ind_dir) / index["tables"][str(index["horizon"])], long=long, base=base,
+            splits=splits, sizes={name: (info["height"], info["width"]) for name, info in scenes.items()},
+            backgrounds={name: Background(ind_dir / info["image"],
+                                          ind_dir / info["labels"] if info["labels"] else None)
+                         for name, info in scenes.items()},
+            finetune_scenes=one_per_location(scenes, [n for n in labelled if scenes[n]["split"] != "test"]),
+            scored_scenes=one_per_location(scenes, [n for n in labelled if scenes[n]["split"] == "test"]),
+            unlabelled_note=UNLABELLED_NOTE)
+
     def scored_table(self, ind_dir: Path, forbidden_classes: Sequence[str]) -> ScoredTable:
         """inD (stage `ind_windows`' folder) as scoring sees it: the t_f = `horizon` table's test
         windows in pixels of each recording's background, metres per pixel orthoPxToMeter x
@@ -544,6 +578,24 @@ def read_index(ind_dir: Path) -> dict:
         check_ind_scene(index_value(scenes, name, dict, path, "scenes."), ind_dir, path,
                         f"scenes.{name}.")
     return index
+
+
+def one_per_location(scenes: dict[str, dict], names: list[str]) -> list[str]:
+    """The first of `names` at each location: recordings of one place share one background."""
+    seen, chosen = set(), []
+    for name in sorted(names):
+        if scenes[name]["location"] not in seen:
+            seen.add(scenes[name]["location"])
+            chosen.append(name)
+    return chosen
+
+
+def at_ind_scale(params: IndBenchmarkParams, ynet: YnetSettings, segmentation: SegmentationParams
+                 ) -> tuple[YnetSettings, SegmentationParams]:
+    """Y-net's and the U-Net's settings at inD's scales: maps at `ynet_resize` of the background,
+    the U-Net's input downsampled by `segmentation_downsample`."""
+    return (replace(ynet, resize=params.ynet_resize),
+            replace(segmentation, downsample=params.segmentation_downsample))
 
 
 def read_windows(ind_dir: Path, index: dict, horizon: int) -> WindowArrays:

@@ -21,6 +21,7 @@ import yaml
 
 from pipeline.benchmarks.base import SceneMasks, ScoredTable, class_values
 from pipeline.benchmarks.long_term import LongTermBenchmark
+from pipeline.data.labels import read_index, read_label_map
 from pipeline.io import IntermediateError
 
 
@@ -92,9 +93,6 @@ def read_scales(path: Path) -> dict[str, float]:
 def sdd_label_masks(labels_dir: Path, forbidden_classes: Sequence[str]) -> SceneMasks:
     """SDD's hand-labelled class masks (`data/labels`, at the original image resolution, every
     video the index lists), each checked against the index's size when read."""
-    # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
-    from pipeline.data.labels import read_index, read_label_map
-
     labels_dir = Path(labels_dir)
     sizes = read_index(labels_dir)["videos"]  # name -> {height, width, ...}
 

@@ -26,6 +26,7 @@ import pandas as pd
 from pipeline.benchmarks.base import ScoredTable
 from pipeline.benchmarks.short_term import (ScoringSources, ShortTermBenchmark, ShortTermInputError,
                                             number_windows, read_rows)
+from pipeline.data.labels import image_sizes, sdd_scene_image
 from pipeline.dataset_list import SDD
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS, split_of
 
@@ -43,17 +44,11 @@ class TrajnetSdd(ShortTermBenchmark):
     def scene_sizes(self, windows: Path, sdd: Path | None, scene_ids: set[str]
                     ) -> dict[str, tuple[int, int]]:
         """Each video's reference image size under the fetched SDD root `sdd`."""
-        # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
-        from pipeline.data.labels import image_sizes
-
         return image_sizes(sdd, scene_ids)
 
     def scene_images(self, windows: Path, sdd: Path | None, cameras: Path | None
                      ) -> Callable[[str], np.ndarray]:
         """SDD's `reference.jpg` under `sdd`."""
-        # Imported here: pipeline.data.labels imports torch, which asking the benchmark never needs.
-        from pipeline.data.labels import sdd_scene_image
-
         return lambda scene_id: sdd_scene_image(sdd, scene_id)
 
     def scored_table(self, sources: ScoringSources) -> ScoredTable:

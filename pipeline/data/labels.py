@@ -21,7 +21,7 @@ import numpy as np
 
 from pipeline.io import IntermediateError, atomic_dir, index_value, read_json_index, same_names
 from pipeline.splits import TEST_VIDEOS, TRAIN_VIDEOS
-from ynet.segmentation import CLASS_NAMES, N_SCENE_CLASSES, PAD_CLASS
+from ynet.classes import CLASS_NAMES, N_SCENE_CLASSES, PAD_CLASS
 
 if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
     from pipeline.config.labels import LabelsParams

@@ -12,7 +12,6 @@ from typing import Any
 
 from pipeline.benchmarks.sdd_long_term import SDD_LONG_TERM
 from pipeline.model_list import PECNET, YNET, label
-from pipeline.report.common import HORIZON_MODELS, LONG_TERM_TF
 from pipeline.report.common import HORIZON_MODELS, LONG_TERM_TF, paper_columns
 from pipeline.report.compat import compat_rows
 from pipeline.report.diagnostics import HEADLINE, TITLE as DIAGNOSTICS_TITLE, diagnostics_from_store

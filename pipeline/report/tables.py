@@ -6,7 +6,6 @@ headline metrics files `dvc metrics show` prints.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, TYPE_CHECKING
@@ -68,6 +67,7 @@ class Column:
     group: str
     label: str
     sub: str = ""
+    key: str = ""  # its file name under reports/headline: model names as the model list spells them
 
 
 @dataclass(frozen=True)
@@ -222,7 +222,7 @@ def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
                  "t_p = 3.2 s, t_f = 4.8 s (TrajNet split). Ours: metrics/short_term/sdd.json; "
                  "under a cell's own protocol: metrics/beyond/short_term.json (the stored K = 20 "
                  "predictions).",
-                 spec["unit"], 2, tuple(Column(f"K = {c['k']}", c["label"]) for c in cols), tuple(rows))
+                 spec["unit"], 2, tuple(Column(f"K = {c['k']}", c["label"], key=f"{c['model']}_k{c['k']}") for c in cols), tuple(rows))
 
 
 def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportParams,
@@ -253,7 +253,7 @@ def table_eth_ucy(spec: Mapping, store: MetricsStore, params: ReportParams,
     columns, per_scene = [], {scene: [] for scene in spec["scenes"]}
     for m in spec["models"]:
         for metric in METRICS:
-            columns.append(Column(m["label"], metric.upper()))
+            columns.append(Column(m["label"], metric.upper(), key=m["model"]))
             for scene in spec["scenes"]:
                 rel = f"short_term/ethucy_{scene}.json"
                 ours = ours_if_trained(m["model"], lambda r=rel, mo=m["model"], me=metric:
@@ -348,8 +348,8 @@ def table_sdd_long(spec: Mapping, store: MetricsStore, params: ReportParams,
                 budget_for(budgets, benchmark.study_key, c["model"], metric, ours)
                 if studied else None))
         rows.append(Row(metric.upper(), tuple(cells)))
-    columns = tuple(Column(long_term(c["dataset"]).label, c["label"], f"K_a = {c['k_a']}")
-                    for c in cols)
+    columns = tuple(Column(long_term(c["dataset"]).label, c["label"], f"K_a = {c['k_a']}",
+                           f"{c['dataset']}_{c['model']}_ka{c['k_a']}") for c in cols)
     registered = [c["label"] for c in cols if c.get("registered")]
     return Table("sdd_long", spec["number"], spec["title"],
                  "t_f = 30 s, t_p = 5 s, K_e = 20 (baselines K = 20). Ours: SDD Y-net from "
@@ -386,7 +386,8 @@ def table_ttst(spec: Mapping, store: MetricsStore, params: ReportParams,
         rows.append(Row(metric.upper(), tuple(cells)))
     tick = {True: "\u2713", False: "\u2717"}
     columns = tuple(Column(long_term(c["dataset"]).label,
-                           f"TTST {tick[c['ttst']]}  CWS {tick[c['cws']]}") for c in cols)
+                           f"TTST {tick[c['ttst']]}  CWS {tick[c['cws']]}",
+                           key=f"{c['dataset']}_{c['model']}_{c['ablation']}") for c in cols)
     return Table("ttst", spec["number"], spec["title"],
                  "t_f = 30 s, K_e = 20, K_a = 1. Ours: metrics/ynet_eval.json and metrics/ind_benchmark.json, "
                  "key ablation.<none|cws|ttst_cws>.",
@@ -441,35 +442,35 @@ def summarize(table: Table) -> TableSummary:
     return TableSummary(table, counts, tuple(reasons), verdicts)
 
 
-def slug(*parts: str) -> str:
-    """'SDD', 'Y-net', 'K_a = 2' -> 'sdd_y_net_k_a_2': a file name for a table column."""
-    return re.sub(r"[^a-z0-9]+", "_", " ".join(p for p in parts if p).lower()).strip("_")
-
-
 def headline_metrics(tables: Iterable[Table], horizons: Iterable[Series]) -> dict[str, dict[str, float]]:
     """The numbers `dvc metrics show` prints: {"<table>/<column>.json": {"ade": .., "fde": ..}}.
 
     One small file per model (table column) with our measured ADE and FDE, so the DVC table has
-    two value columns and a row per model; tables of one row per metric give that row's cells, the
-    ETH/UCY table its AVG row. Y-net's horizon points are added as `figure4_horizons/ynet_tf<t>`.
+    two value columns and a row per model, named by the column's `key` (the model list's spelling:
+    `sgan_k20`, `sdd_ynet_ka2`, `sdd_ynet_ttst_cws`); tables of one row per metric give that row's
+    cells, the ETH/UCY table its AVG row. Y-net's horizon points are added as `figure4_horizons/ynet_tf<t>`.
     Unmeasured cells are left out; a registered model's (ours only) are in.
     """
     files: dict[str, dict[str, float]] = {}
     for table in tables:
         folder = f"table{table.number}_{table.key}"
         metric_rows = {row.label.lower(): row for row in table.rows if row.label.lower() in METRICS}
+        keys = [column.key for column in table.columns]
+        if not all(keys) or (metric_rows and len(set(keys)) < len(keys)):
+            raise ValueError(f"table {table.number}: each column needs a headline file name of its "
+                             f"own, got {keys}")
         if metric_rows:  # rows ADE, FDE; one column per model
             for i, column in enumerate(table.columns):
                 for metric, row in metric_rows.items():
                     cell = row.cells[i]
                     if cell.kind in ("measured", "ours-only"):
-                        name = f"{folder}/{slug(column.group, column.label, column.sub)}.json"
+                        name = f"{folder}/{column.key}.json"
                         files.setdefault(name, {})[metric] = cell.ours.mean
         else:  # rows per scene and AVG; columns model x metric
             average = next((row for row in table.rows if row.label == "AVG"), None)
             for column, cell in zip(table.columns, average.cells if average else ()):
                 if cell.kind == "measured":
-                    name = f"{folder}/{slug(column.group)}_avg.json"
+                    name = f"{folder}/{column.key}_avg.json"
                     files.setdefault(name, {})[column.label.lower()] = cell.ours.mean
     for series in horizons:
         if series.key == YNET:

@@ -15,10 +15,11 @@ from it ends with the very same weights as an uninterrupted run. Runs on `runtim
 (`pipeline.device`): on the CPU the numbers are those of the CPU-only code; on CUDA in bf16
 autocast and channels-last.
 
-Public beside `train`: the parts inD's fine-tuning (`pipeline.runners.ind`) reuses and
-`bench/bench_segmentation.py` times: `load_training_scenes`, `unet_config`, `epoch_batches` (an
-epoch's augmented crops, drawn as `train` draws them) and `train_step` (one optimiser step, its
-loss read at once; `train` reads the losses one step late).
+Beside `train`: `finetune`, a trained U-Net fine-tuned on another benchmark's labelled backgrounds
+(inD: `pipeline.runners.semantic_maps.background_maps`) with the same crops, loss and schedule, its
+encoder frozen at first; and the parts `bench/bench_segmentation.py` times: `load_training_scenes`,
+`unet_config`, `epoch_batches` (an epoch's augmented crops, drawn as `train` draws them) and
+`train_step` (one optimiser step, its loss read at once; `train` reads the losses one step late).
 """
 
 from __future__ import annotations
@@ -263,6 +264,47 @@ def train(
     finally:
         bar.close()
     return model, log
+
+
+def encoder_parameters(model: UNet) -> list[torch.nn.Parameter]:
+    """The stem's and the down blocks' parameters: what `finetune` freezes at first."""
+    return [*model.stem.parameters(), *model.downs.parameters()]
+
+
+def finetune(model: UNet, scenes: list[tuple[np.ndarray, np.ndarray]], params: SegmentationParams,
+             freeze_epochs: int) -> list[dict]:
+    """Fine-tune `model` in place on downsampled, padded (image (Hp, Wp, 3), labels (Hp, Wp))
+    pairs; returns the epoch log.
+
+    The encoder (stem and down blocks) gets no gradient and keeps its BatchNorm statistics for the
+    first `freeze_epochs` epochs; crops, augmentation, loss and schedule are `train`'s. Minutes
+    long, so no checkpoint: a rerun fine-tunes afresh (seeded).
+    """
+    torch.manual_seed(params.seed)
+    if params.bf16:
+        model = model.to(memory_format=torch.channels_last)
+    optimiser = torch.optim.Adam(model.parameters(), lr=params.lr)
+    log = []
+    for epoch in range(params.epochs):
+        frozen = epoch < freeze_epochs
+        model.train()
+        for p in encoder_parameters(model):
+            p.requires_grad_(not frozen)
+        if frozen:
+            model.stem.eval()
+            model.downs.eval()
+        for group in optimiser.param_groups:
+            group["lr"] = learning_rate(params, epoch)
+        start = time.perf_counter()
+        losses = [train_step(model, optimiser, images, labels, params.bf16)
+                  for images, labels in epoch_batches(scenes, params, epoch)]
+        log.append({"epoch": epoch + 1, "loss": float(np.mean(losses)), "lr": learning_rate(params, epoch),
+                    "crops": len(scenes) * params.crops_per_image, "encoder_frozen": frozen,
+                    "seconds": round(time.perf_counter() - start, 3)})
+    for p in encoder_parameters(model):
+        p.requires_grad_(True)
+    model.eval()
+    return log
 
 
 def save_checkpoint(path: Path, run_id: str, model: UNet, optimiser: torch.optim.Optimizer,

@@ -7,6 +7,9 @@ oracle ablation). Either way every video gets a map in the format of `pipeline.d
 Also scores the predicted maps on the test videos against the hand labels (per-class IoU, mIoU),
 and draws image | labels | prediction for every test video.
 
+`background_maps` does the same for another long-term benchmark's backgrounds (inD, stage
+`train_ind`), the U-Net fine-tuned first on the benchmark's labelled train backgrounds if any.
+
 The U-Net runs on `runtime.device` (`pipeline.device`): on the CPU in float32 as always, on CUDA in
 bf16 autocast with the softmax in float32.
 """
@@ -15,8 +18,9 @@ from __future__ import annotations
 
 import io
 import json
+from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -25,12 +29,15 @@ import torch
 from pipeline.data.labels import read_index, read_label_map, reference_image_path
 from pipeline.data.semantic_maps import (QUANT, comparison_figure, iou_summary, one_hot_map,
                                          predicted_labels, quantise, resize_probabilities)
-from pipeline.device import autocast, module_device, to_device
+from pipeline.device import CPU, autocast, module_device, to_device
 from pipeline.io import atomic_dir, write_json
-from pipeline.runners.segmentation import load_model, pad_to_multiple, scaled_size
-from ynet.segmentation import CLASS_NAMES, N_OUTPUTS, UNet, confusion_matrix
+from pipeline.runners.segmentation import (downsample_pair, export_model, finetune, load_model,
+                                           pad_to_multiple, scaled_size)
+from ynet.segmentation import CLASS_NAMES, N_OUTPUTS, PAD_CLASS, UNet, confusion_matrix
 
 if TYPE_CHECKING:  # annotations only: no code of a stage that runs this (pipeline.code_graph)
+    from pipeline.benchmarks.long_term import LongTermData
+    from pipeline.config.segmentation import SegmentationParams
     from pipeline.config.semantic import SemanticParams
 
 
@@ -47,6 +54,74 @@ def predict_probabilities(model: UNet, image: np.ndarray, pad_multiple: int) -> 
             logits = model(x)  # (1, C, Hp, Wp)
         probs = logits.float().softmax(dim=1)[0, :, :h, :w]  # (C, h, w)
     return probs.cpu().numpy().astype(np.float32)
+
+
+def predict_map(model: UNet, image: np.ndarray, downsample: int, pad_multiple: int,
+                hw: tuple[int, int]) -> np.ndarray:
+    """Class probabilities (C, H, W) float32 at size `hw` of a whole BGR image (h, w, 3): the U-Net
+    sees it downsampled by `downsample` (area averaging), as it was trained."""
+    small = scaled_size(*image.shape[:2], 1 / downsample)
+    net_input = cv2.resize(image, (small[1], small[0]), interpolation=cv2.INTER_AREA)
+    return resize_probabilities(predict_probabilities(model, net_input, pad_multiple), hw)
+
+
+def read_image(path: Path, flags: int = cv2.IMREAD_COLOR) -> np.ndarray:
+    image = cv2.imread(str(path), flags)
+    if image is None:
+        raise FileNotFoundError(f"{path}: missing or unreadable")
+    return image
+
+
+def background_maps(data: LongTermData, segmentation_model: Path, params: SegmentationParams,
+                    freeze_epochs: int, resize: float, profile: str, work_dir: Path,
+                    device: torch.device = CPU) -> tuple[dict[str, np.ndarray], dict]:
+    """scene -> (C, H, W) class probabilities at `resize` of its background, and what was done.
+
+    With labelled train backgrounds (`data.finetune_scenes`) the SDD-trained U-Net is fine-tuned on
+    them first (`finetune`, `params`' schedule at its `downsample`; exported to
+    `work_dir/model.pt`), else it segments unchanged. The maps of `data.scored_scenes` are scored
+    against their labels. The U-Net fine-tunes and segments on `device`; its fine-tuning takes
+    minutes and keeps no checkpoint of its own, so a stop request is only honoured after it."""
+    model, meta = load_model(segmentation_model, device)
+    downsample = params.downsample
+    facts: dict[str, Any] = {"segmentation_downsample": downsample,
+                             "sdd_model": {"unet": meta["unet"], "epochs": meta["epochs"]}}
+    backgrounds = data.backgrounds
+    if data.finetune_scenes:
+        params = replace(params, base_channels=meta["unet"]["base_channels"],
+                         depth=meta["unet"]["depth"], pad_multiple=meta["pad_multiple"])
+        names = data.finetune_scenes
+        pairs = []
+        for name in names:
+            image, labels = downsample_pair(read_image(backgrounds[name].image),
+                                            read_image(backgrounds[name].labels,
+                                                       cv2.IMREAD_UNCHANGED), downsample)
+            pairs.append((pad_to_multiple(image, params.pad_multiple),
+                          pad_to_multiple(labels, params.pad_multiple, PAD_CLASS)))
+        log = finetune(model, pairs, params, freeze_epochs)
+        export_model(work_dir / "model.pt", model, params, profile, names, log)
+        facts |= {"source": "finetuned", "train_scenes": names, "epochs": len(log),
+                  "freeze_encoder_epochs": min(freeze_epochs, len(log)),
+                  "final_dice_loss": log[-1]["loss"] if log else None,
+                  "train_seconds": round(sum(row["seconds"] for row in log), 1)}
+    else:
+        facts |= {"source": "sdd_unet", "note": data.unlabelled_note}
+
+    maps = {}
+    scored = data.scored_scenes
+    confusion = np.zeros((N_OUTPUTS, N_OUTPUTS), np.int64)
+    for name, background in sorted(backgrounds.items()):
+        image = read_image(background.image)
+        hw = scaled_size(*image.shape[:2], resize)
+        maps[name] = predict_map(model, image, downsample, meta["pad_multiple"], hw)  # (C, H, W)
+        if name in scored:  # a labelled test background: how good are the maps Y-net is given?
+            labels = cv2.resize(read_image(background.labels, cv2.IMREAD_UNCHANGED),
+                                (hw[1], hw[0]), interpolation=cv2.INTER_NEAREST)  # (H, W)
+            confusion += confusion_matrix(torch.from_numpy(predicted_labels(maps[name])),
+                                          torch.from_numpy(labels), N_OUTPUTS).numpy()
+    if scored:
+        facts["test"] = {"scenes": scored, **iou_summary(confusion)}
+    return maps, facts
 
 
 def build_maps(
@@ -73,10 +148,7 @@ def build_maps(
             if params.source == "labels":
                 probs = one_hot_map(labels)
             else:
-                small = scaled_size(*image.shape[:2], 1 / meta["downsample"])
-                net_input = cv2.resize(image, (small[1], small[0]), interpolation=cv2.INTER_AREA)
-                probs = resize_probabilities(
-                    predict_probabilities(model, net_input, meta["pad_multiple"]), hw)
+                probs = predict_map(model, image, meta["downsample"], meta["pad_multiple"], hw)
             maps[name] = quantise(probs)  # (C, H, W)
             if info["split"] != "test":
                 continue

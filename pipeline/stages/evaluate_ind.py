@@ -2,7 +2,8 @@
 
 Y-net (its settings from the checkpoint) with TTST + CWS on the test windows over `eval.rounds`
 rounds, the Table 4 ablation and the K_e x K_a grid; S-GAN, PECNet, R-PECNet and constant velocity
-as `evaluate_baseline` scores them (`pipeline.runners.ind`). Writes `metrics/ind_benchmark.json` in
+as `evaluate_baseline` scores them (`pipeline.runners.long_term_benchmark` on
+`pipeline.benchmarks.ind.IND`). Writes `metrics/ind_benchmark.json` in
 the layout of `metrics/ynet_eval.json` plus "baselines", "semantic" and the training facts, and every
 round of each model's test predictions into the folder `--predictions` (`<model>.parquet`, pixels,
 `pipeline.harness.predictions`); inD not provided: the not-provided record and empty predictions
@@ -20,6 +21,7 @@ import argparse
 import json
 from pathlib import Path
 
+from pipeline.benchmarks.ind import IND
 from pipeline.config.cws import CwsParams
 from pipeline.config.eval import EvalParams
 from pipeline.config.evaluate_baseline import EvaluateBaselineParams
@@ -29,7 +31,7 @@ from pipeline.config.train_baseline import TrainBaselineParams
 from pipeline.config.ttst import TtstParams
 from pipeline.device import SCORING, describe, select_device
 from pipeline.io import exit_on_bad_intermediate, write_json
-from pipeline.runners.ind import IndEvalSettings, evaluate_benchmark, write_predictions
+from pipeline.runners.long_term_benchmark import EvalSettings, evaluate_benchmark, write_predictions
 
 
 @exit_on_bad_intermediate
@@ -43,7 +45,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="folder of every model's stored test predictions (<model>.parquet)")
     args = parser.parse_args(argv)
     params = read_params()
-    settings = IndEvalSettings(
+    settings = EvalSettings(
         profile=active_profile(params),
         eval=load_profile(EvalParams, "eval", params),
         ttst=load_section(TtstParams, "ttst", params),
@@ -54,8 +56,9 @@ def main(argv: list[str] | None = None) -> None:
     device = select_device(settings.runtime.device, purpose=SCORING)
     print(f"evaluate_ind: on {describe(device)}")
     trained = json.loads(args.train_metrics.read_text())
-    result, predictions = evaluate_benchmark(args.ind, args.checkpoint_dir, trained, settings, device)
-    write_predictions(args.predictions, predictions,
+    result, predictions = evaluate_benchmark(IND, args.ind, args.checkpoint_dir, trained, settings,
+                                             device)
+    write_predictions(IND, args.predictions, predictions,
                       None if result["provided"] else result["reason"])
     write_json(result, args.metrics, sort_keys=True)
     if not result["provided"]:

@@ -2,7 +2,8 @@
 
 On the `ind_windows` output: the SDD U-Net fine-tuned on labelled inD backgrounds when there are
 any, and the semantic maps of every background; Y-net (`ynet.<profile>` at inD's `ynet_resize`);
-S-GAN and PECNet at t_f = 30 and PECNet at t_f = 5 (R-PECNet's) (`pipeline.runners.ind`). Writes
+S-GAN and PECNet at t_f = 30 and PECNet at t_f = 5 (R-PECNet's)
+(`pipeline.runners.long_term_training` on `pipeline.benchmarks.ind.IND`). Writes
 the checkpoint folder (resumable; SIGTERM / SIGINT or `runtime.max_minutes` checkpoint and exit
 143 / 130 / 75) and the training record; inD not provided: the not-provided record, at once.
 Params: `profile`, `runtime.device`, `runtime.max_minutes`, `ind_benchmark.<profile>`,
@@ -17,6 +18,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pipeline.benchmarks.ind import IND, at_ind_scale
 from pipeline.config.ind_benchmark import IndBenchmarkParams
 from pipeline.config.loading import active_profile, load_profile, load_section, read_params
 from pipeline.config.runtime import RuntimeParams
@@ -28,7 +30,7 @@ from pipeline.io import exit_on_bad_intermediate, write_json
 from pipeline.preemption import Preemption, exit_when_stopped
 from pipeline.model_list import TRAINED_BASELINES
 from pipeline.runners.baselines import config_class
-from pipeline.runners.ind import IndTrainSettings, train_benchmark
+from pipeline.runners.long_term_training import TrainSettings, train_benchmark
 
 
 @exit_when_stopped
@@ -42,18 +44,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--metrics", type=Path, required=True, help="training record (JSON)")
     args = parser.parse_args(argv)
     params = read_params()
-    settings = IndTrainSettings(
-        profile=active_profile(params),
-        ind=load_profile(IndBenchmarkParams, "ind_benchmark", params),
-        ynet=load_profile(YnetSettings, "ynet", params),
-        segmentation=load_profile(SegmentationParams, "segmentation", params),
+    ind = load_profile(IndBenchmarkParams, "ind_benchmark", params)
+    ynet, segmentation = at_ind_scale(ind, load_profile(YnetSettings, "ynet", params),
+                                      load_profile(SegmentationParams, "segmentation", params))
+    settings = TrainSettings(
+        profile=active_profile(params), ynet=ynet, segmentation=segmentation,
+        freeze_encoder_epochs=ind.freeze_encoder_epochs,
         baseline_configs={m: load_profile(config_class(m), m, params) for m in TRAINED_BASELINES},
         train_baseline=load_section(TrainBaselineParams, "train_baseline", params),
         runtime=load_section(RuntimeParams, "runtime", params))
     device = select_device(settings.runtime.device, purpose=TRAINING)
     print(f"train_ind: on {describe(device)}")
     with Preemption(settings.runtime.max_minutes) as preemption:
-        record = train_benchmark(args.ind, args.segmentation_model, args.checkpoint_dir,
+        record = train_benchmark(IND, args.ind, args.segmentation_model, args.checkpoint_dir,
                                  settings, device, preemption)
     write_json(record, args.metrics, sort_keys=True)
     if not record["provided"]:
