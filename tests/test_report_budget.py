@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from pipeline.report.budget import budget_point, budget_runs, budget_section, plot_budget
+from pipeline.report.budget import (budget_point, budget_runs, budget_section, kept_epoch,
+                                    plot_budget)
 from pipeline.report.common import FigureSlot
 from pipeline.report.lookups import MetricsStore, load_metrics
 from pipeline.report.tables import build_tables
@@ -36,10 +37,22 @@ def test_records_become_curves_by_benchmark_and_model_in_budget_order():
     assert sorted(curves) == [("sdd_long", "pecnet"), ("zara2", "pecnet")]
     runs = curves[("sdd_long", "pecnet")]
     assert [(r.factor, r.epochs, r.values["ade"], r.best_epoch) for r in runs] == [
-        (1, 40, 90.0, 10), (2, 80, 85.0, 20), (4, 160, 81.0, 40)]
+        (1, 40, 90.0, 11), (2, 80, 85.0, 21), (4, 160, 81.0, 41)]  # recorded from 0, shown from 1
     assert runs[0].source == "studies/budget/sdd_long_pecnet_x1.json" and runs[0].cpu == "test CPU"
     assert curves[("zara2", "pecnet")][0].values == {"ade": 0.20, "fde": 0.35}
-    assert curves[("zara2", "pecnet")][0].best_epoch == 6  # a short-term record keeps it in "train"
+    assert curves[("zara2", "pecnet")][0].best_epoch == 7  # a short-term record keeps it in "train"
+
+
+@pytest.mark.parametrize("record, model, kept", [
+    ({"best_epoch": 8, "val_ade_per_epoch": [3.0, 2.0, 2.5, 2.0]}, "pecnet", 2),  # the curve:
+    ({"best_epoch": 9, "val_ade_per_epoch": [3.0, 2.0, 2.5, 2.0]}, "ynet", 2),  # its first minimum
+    ({"val_ade_per_epoch": [251.3, 112.3, 118.0]}, "ynet", 2),  # long-term Y-net: only the curve
+    ({"best_epoch": 8}, "pecnet", 9),  # no curve: the baselines record epochs from 0
+    ({"train": {"best_epoch": 30}}, "ynet", 30),  # Y-net from 1
+    ({"val_ade_per_epoch": []}, "ynet", None),
+])
+def test_the_kept_epoch_is_counted_from_one_for_every_model(record, model, kept):
+    assert kept_epoch(record, model) == kept
 
 
 def test_the_longest_run_is_set_against_the_studys_own_1x_else_the_headline():

@@ -50,6 +50,20 @@ def run_values(record: Mapping[str, Any]) -> dict[str, float]:
             if is_number(dig(node, metric, "mean"))}
 
 
+def kept_epoch(record: Mapping, model: str) -> int | None:
+    """The epoch validation kept, counted from 1 as the page counts epochs: the first minimum of
+    the run's validation curve (how Y-net's and the baselines' trainings keep their best weights),
+    else the recorded one (the baselines record it from 0, long-term at the top, short-term
+    under "train"; Y-net from 1)."""
+    curve = record.get("val_ade_per_epoch")
+    if isinstance(curve, list) and curve and all(is_number(v) for v in curve):
+        return curve.index(min(curve)) + 1
+    best = record.get("best_epoch", dig(record, "train", "best_epoch"))
+    if not is_number(best):
+        return None
+    return int(best) if model == YNET else int(best) + 1
+
+
 def budget_runs(studies: MetricsStore) -> dict[tuple[str, str], list[BudgetRun]]:
     """(benchmark, model) -> its runs by factor, from the records' names and contents."""
     curves: dict[tuple[str, str], list[BudgetRun]] = {}
@@ -59,10 +73,10 @@ def budget_runs(studies: MetricsStore) -> dict[tuple[str, str], list[BudgetRun]]
         if not (isinstance(record, Mapping) and is_number(record.get("factor")) and benchmark):
             continue
         model = rest
-        best = record.get("best_epoch", dig(record, "train", "best_epoch"))  # long-, short-term
+        best = kept_epoch(record, model)
         curves.setdefault((benchmark, model), []).append(BudgetRun(
             int(record["factor"]), int(record.get("epochs", 0)), run_values(record),
-            int(best) if is_number(best) else None,
+            best,
             str(dig(record, "machine", "cpu") or "unknown"), studies.where(rel)))
     return {key: sorted(runs, key=lambda run: run.factor) for key, runs in curves.items()}
 
