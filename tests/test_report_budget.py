@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from pipeline.report.budget import (budget_point, budget_runs, budget_section, kept_epoch,
-                                    plot_budget)
+from pipeline.report.budget import (budget_point, budget_runs, budget_section, budget_ticks,
+                                    kept_epoch, plot_budget)
 from pipeline.report.common import FigureSlot
 from pipeline.report.lookups import MetricsStore, load_metrics
 from pipeline.report.tables import build_tables
@@ -65,6 +65,13 @@ def test_the_longest_run_is_set_against_the_studys_own_1x_else_the_headline():
     assert budget_point(curves[("zara2", "pecnet")], "fde", headline=None) is None
     only_1x = budget_runs(MetricsStore("s", {"hotel_pecnet_x1.json": short_term(1, 0.3, 0.5)}))
     assert budget_point(only_1x[("hotel", "pecnet")], "ade", headline=0.3) is None
+
+
+def test_the_axis_names_1x_where_only_the_headline_stands_there():
+    curves = budget_runs(MetricsStore("studies/budget", STUDY))
+    assert budget_ticks(curves[("zara2", "pecnet")], with_headline=True) == [1, 2]
+    assert budget_ticks(curves[("zara2", "pecnet")], with_headline=False) == [2]
+    assert budget_ticks(curves[("sdd_long", "pecnet")], with_headline=True) == [1, 2, 4]
 
 
 def test_a_curve_is_drawn_with_its_gap_shares(tmp_path):

@@ -92,6 +92,12 @@ def budget_point(runs: list[BudgetRun], metric: str, headline: float | None) -> 
     return BudgetPoint(longest.factor, longest.values[metric], one_x)
 
 
+def budget_ticks(runs: list[BudgetRun], with_headline: bool) -> list[int]:
+    """The budgets a curve's axis names: its runs', and 1x where the headline run is drawn there
+    (a study without its own 1x)."""
+    return sorted({run.factor for run in runs} | ({1} if with_headline else set()))
+
+
 def plot_budget(runs: list[BudgetRun], paper: Mapping[str, float | None],
                 headline: Mapping[str, float | None], title: str, unit: str, path: Path) -> bool:
     """Test ADE and FDE against the budget (x the profile's epochs), the paper's number as a
@@ -110,7 +116,8 @@ def plot_budget(runs: list[BudgetRun], paper: Mapping[str, float | None],
         if paper.get(metric) is not None:
             ax.axhline(paper[metric], linestyle="--", color="#d62728", label="paper")
         ax.set_xscale("log", base=2)
-        ax.set_xticks([run.factor for run in runs], [f"{run.factor}x" for run in runs])
+        factors = budget_ticks(runs, headline.get(metric) is not None)
+        ax.set_xticks(factors, [f"{factor}x" for factor in factors])
         ax.set_xlabel("training budget (x the profile's epochs)")
         ax.set_ylabel(f"test {metric.upper()} ({unit})")
         ax.grid(alpha=0.3)
