@@ -31,9 +31,12 @@ repro: env  # dvc repro, two single-threaded stages at once on 2 cores, each clo
 		$(if $(filter 1 yes true,$(DASK_INSECURE)),--insecure) \
 		$(if $(DASHBOARD),--dashboard $(DASHBOARD))
 
+# the suite in TEST_WORKERS processes (pytest-xdist), each test file whole in one of them, so that a
+# file's shared set-ups are built once; TEST_WORKERS=0 runs it in this process
+TEST_WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 test: env
 	if [ "$$CI" = true ]; then bash tests/setup_chromium.sh; fi
-	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python -m pytest
+	PATH="$(abspath $(BIN)):$$PATH" $(BIN)/python -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 # Every speed benchmark (bench/README.md). One that needs a trained model or another pipeline output
 # names it and the `dvc repro` that makes it, and exits 3: listed at the end, not a failure.
