@@ -28,8 +28,8 @@ from pipeline.report.lookups import Absent, Measured, load_metrics, lookup
 from pipeline.report.page import animation_section
 from pipeline.report.run_provenance import (git_state, is_output, lock_outputs, porcelain_paths,
                                             read_lock)
-from pipeline.report.tables import (Column, build_tables, compare, find_long_term,
-                                    headline_metrics, summarize)
+from pipeline.report.tables import (Cell, Column, Row, Table, build_tables, compare,
+                                    find_long_term, headline_metrics, summarize)
 from pipeline.stages import animations as animations_stage
 from pipeline.stages import report as report_stage
 from pipeline.stages import report_figures as report_figures_stage
@@ -774,6 +774,18 @@ def test_headline_metrics_hold_our_ade_and_fde_per_table_and_model(rendered):
     assert not [name for name in names if any(label in name for label in ("s_gan", "y_net", "r_pe"))]
     assert {"table4_ttst/sdd_ynet_none.json", "table4_ttst/sdd_ynet_cws.json",
             "table4_ttst/sdd_ynet_ttst_cws.json"} <= names  # one file per ablation column
+
+
+def test_two_columns_of_one_headline_file_name_are_refused():
+    """Table 4's three ablation columns once shared one file (the last written won): a table whose
+    columns would share a headline file, or have none, is an error, not a silent overwrite."""
+    def table(*keys: str) -> Table:
+        return Table("t", 4, "T", "", "px", 2, tuple(Column("SDD", k, key=k) for k in keys),
+                     (Row("ADE", tuple(Cell(1.0, None) for _ in keys)),))  # paper only
+    assert headline_metrics([table("sdd_ynet_none", "sdd_ynet_cws")], []) == {}
+    for keys in (("sdd_ynet_cws", "sdd_ynet_cws"), ("sdd_ynet_cws", "")):
+        with pytest.raises(ValueError, match="each column needs a headline file name of its own"):
+            headline_metrics([table(*keys)], [])
 
 
 def test_page_shows_the_params_dvc_lock_recorded_not_params_yaml(project):

@@ -132,11 +132,3 @@ def confusion_matrix(pred: torch.Tensor, target: torch.Tensor, n_classes: int) -
     """(n_classes, n_classes) counts, rows = target, columns = prediction; any shapes alike."""
     index = target.reshape(-1).long() * n_classes + pred.reshape(-1).long()
     return torch.bincount(index, minlength=n_classes * n_classes).reshape(n_classes, n_classes)
-
-
-def iou_from_confusion(confusion: torch.Tensor) -> torch.Tensor:
-    """Per-class IoU = TP / (TP + FP + FN); NaN for a class absent from both target and prediction."""
-    confusion = confusion.double()
-    tp = confusion.diagonal()
-    union = confusion.sum(0) + confusion.sum(1) - tp
-    return torch.where(union > 0, tp / union.clamp(min=1), torch.full_like(tp, float("nan")))

@@ -48,6 +48,7 @@ from pipeline.benchmarks.short_term import (METRE_COLUMNS, ScoringSources, Short
                                             ShortTermInputError, ShortTermSplits, number_windows,
                                             read_rows, splits_of)
 from pipeline.data.homography import metres_to_pixels, pixels_to_metres, read_homography
+from pipeline.data.semantic_maps import QUANT, load_semantic_maps, quantise
 from pipeline.data.window_table import select_split, to_arrays
 from pipeline.dataset_list import ETHUCY
 from pipeline.io import IntermediateError, index_value, positive_ints, read_json_index
@@ -183,9 +184,6 @@ def splits_in_metres(table: pd.DataFrame, fold: str, n_past: int, n_future: int,
 def road_masks(maps_dir: Path) -> SceneMasks:
     """The ETH/UCY road / not-road maps as class masks (NOT_ROAD where p(not road) > p(road), else
     ROAD) on each scene's grid, positions in metres mapped through the scene's homography."""
-    # Imported here: pipeline.data.semantic_maps imports torch; asking the benchmark never needs it.
-    from pipeline.data.semantic_maps import load_semantic_maps
-
     maps_dir = Path(maps_dir)
     index_path = maps_dir / "index.json"
     resize = index_value(read_json_index(index_path), "resize", float, index_path)
@@ -341,9 +339,6 @@ def write_ethucy_maps(out: Path, release_root: Path, scenes_root: Path, scene_na
                       homographies: dict[str, np.ndarray], resize: float) -> dict[str, dict]:
     """Write `maps.npz` + `index.json` for `scene_names` into the folder `out`; returns the index's
     per-scene entries."""
-    # Imported here: pipeline.data.semantic_maps imports torch; asking the benchmark never needs it.
-    from pipeline.data.semantic_maps import QUANT, quantise
-
     maps, entries = {}, {}
     for name in sorted(scene_names):
         scene = SCENES[name]

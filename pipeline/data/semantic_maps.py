@@ -1,7 +1,7 @@
 """The per-class probability maps Y-net consumes: their stored form, and how they score.
 
 Every video's (C=6, H, W) map is at Y-net's resolution (`resize` of the original image), channel
-order `ynet.segmentation.CLASS_NAMES` (channel 0 = padding), stored uint8-quantised (p * 255) in
+order `ynet.classes.CLASS_NAMES` (channel 0 = padding), stored uint8-quantised (p * 255) in
 one compressed `maps.npz` keyed `<scene>_<k>`; `load_semantic_maps` returns float probabilities.
 Stage `semantic_maps` writes them (`pipeline.runners.semantic_maps`: the U-Net's inference, or the
 hand labels one-hot); the ETH/UCY scenes' maps (`pipeline.benchmarks.ethucy`) share the format.
@@ -14,12 +14,11 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import torch
 
 from pipeline.data.labels import colourise, legend
 from pipeline.io import (IntermediateError, check_array, index_value, positive_ints,
                          read_json_index, read_npz)
-from ynet.segmentation import CLASS_NAMES, N_OUTPUTS, PAD_CLASS, iou_from_confusion
+from ynet.classes import CLASS_NAMES, N_OUTPUTS, PAD_CLASS
 
 QUANT = 255  # stored value = round(p * QUANT)
 
@@ -93,9 +92,18 @@ def predicted_labels(probs: np.ndarray) -> np.ndarray:
     return classes[scene.argmax(axis=0)].astype(np.uint8)
 
 
+def iou_from_confusion(confusion: np.ndarray) -> np.ndarray:
+    """Per-class IoU = TP / (TP + FP + FN) from a (C, C) confusion matrix; NaN for a class absent
+    from both target and prediction."""
+    confusion = confusion.astype(np.float64)
+    tp = np.diag(confusion)
+    union = confusion.sum(0) + confusion.sum(1) - tp
+    return np.where(union > 0, tp / np.maximum(union, 1), np.nan)
+
+
 def iou_summary(confusion: np.ndarray) -> dict:
     """Per-class IoU, mIoU and pixel accuracy from a confusion matrix over the scene classes."""
-    iou = iou_from_confusion(torch.from_numpy(confusion)).numpy()
+    iou = iou_from_confusion(confusion)
     scene = [k for k in range(len(CLASS_NAMES)) if k != PAD_CLASS]
     per_class = {CLASS_NAMES[k]: None if np.isnan(iou[k]) else round(float(iou[k]), 4) for k in scene}
     valid = [v for v in per_class.values() if v is not None]

@@ -632,7 +632,8 @@ def check_ind(store: MetricsStore, paper: Mapping,
 def check_horizon_gap(store: MetricsStore, paper: Mapping,
                       short_term: ShortTermSeeds | None = None) -> Outcome:
     """The ADE gap PECNet - Y-net grows at every step from one horizon to the next."""
-    gap = paper_long(paper, "sdd", PECNET, "ade") - paper_long(paper, "sdd", YNET, "ade")
+    sdd = SDD_LONG_TERM.paper_key
+    gap = paper_long(paper, sdd, PECNET, "ade") - paper_long(paper, sdd, YNET, "ade")
     paper_lines = [f"Figure 4: a plot, no published numbers; Table 3 (30 s): PECNet \u2212 Y-net = "
                    f"{gap:.2f} px"]
     horizons = horizons_measured(store)

@@ -222,7 +222,9 @@ def table_sdd_short(spec: Mapping, store: MetricsStore, params: ReportParams,
                  "t_p = 3.2 s, t_f = 4.8 s (TrajNet split). Ours: metrics/short_term/sdd.json; "
                  "under a cell's own protocol: metrics/beyond/short_term.json (the stored K = 20 "
                  "predictions).",
-                 spec["unit"], 2, tuple(Column(f"K = {c['k']}", c["label"], key=f"{c['model']}_k{c['k']}") for c in cols), tuple(rows))
+                 spec["unit"], 2,
+                 tuple(Column(f"K = {c['k']}", c["label"], key=f"{c['model']}_k{c['k']}")
+                       for c in cols), tuple(rows))
 
 
 def average_cell(paper: float | None, scene_cells: list[Cell], params: ReportParams,
@@ -448,7 +450,8 @@ def headline_metrics(tables: Iterable[Table], horizons: Iterable[Series]) -> dic
     One small file per model (table column) with our measured ADE and FDE, so the DVC table has
     two value columns and a row per model, named by the column's `key` (the model list's spelling:
     `sgan_k20`, `sdd_ynet_ka2`, `sdd_ynet_ttst_cws`); tables of one row per metric give that row's
-    cells, the ETH/UCY table its AVG row. Y-net's horizon points are added as `figure4_horizons/ynet_tf<t>`.
+    cells, the ETH/UCY table its AVG row. Y-net's horizon points are added as
+    `figure4_horizons/ynet_tf<t>`.
     Unmeasured cells are left out; a registered model's (ours only) are in.
     """
     files: dict[str, dict[str, float]] = {}

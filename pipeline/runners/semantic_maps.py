@@ -66,6 +66,7 @@ def predict_map(model: UNet, image: np.ndarray, downsample: int, pad_multiple: i
 
 
 def read_image(path: Path, flags: int = cv2.IMREAD_COLOR) -> np.ndarray:
+    """An image (BGR), or with IMREAD_UNCHANGED a label mask; an error naming `path` if absent."""
     image = cv2.imread(str(path), flags)
     if image is None:
         raise FileNotFoundError(f"{path}: missing or unreadable")
